@@ -1,0 +1,72 @@
+#include "mapdelta/common/cloud_io.hpp"
+
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+#include <pcl/point_types.h>
+
+#include <filesystem>
+
+#include "mapdelta/common/error.hpp"
+
+namespace mapdelta {
+namespace {
+
+std::string Extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (auto& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+}  // namespace
+
+PointCloud ReadCloud(const std::string& path) {
+  const std::string ext = Extension(path);
+  if (ext != ".pcd" && ext != ".ply") {
+    throw Error(ErrorCode::kUnsupported,
+                path + ": unsupported cloud format '" + ext + "' (expected .pcd or .ply)");
+  }
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw Error(ErrorCode::kIo, path + ": no such file");
+  }
+  pcl::PointCloud<pcl::PointXYZ> pcl_cloud;
+  int status = -1;
+  try {
+    status = ext == ".pcd" ? pcl::io::loadPCDFile(path, pcl_cloud)
+                           : pcl::io::loadPLYFile(path, pcl_cloud);
+  } catch (const std::exception& e) {
+    throw Error(ErrorCode::kParse, path + ": malformed " + ext.substr(1) + " file: " + e.what());
+  }
+  if (status < 0) {
+    throw Error(ErrorCode::kParse, path + ": malformed " + ext.substr(1) +
+                                       " file (PCL could not parse its header or data)");
+  }
+  PointCloud cloud;
+  cloud.reserve(pcl_cloud.size());
+  for (const auto& p : pcl_cloud.points) cloud.emplace_back(p.x, p.y, p.z);
+  return cloud;
+}
+
+void WriteCloud(const std::string& path, const PointCloud& cloud) {
+  const std::string ext = Extension(path);
+  pcl::PointCloud<pcl::PointXYZ> pcl_cloud;
+  pcl_cloud.resize(cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    pcl_cloud[i] = pcl::PointXYZ(cloud[i].x(), cloud[i].y(), cloud[i].z());
+  }
+  pcl_cloud.width = static_cast<uint32_t>(cloud.size());
+  pcl_cloud.height = 1;
+  int status = -1;
+  if (ext == ".pcd") {
+    status = cloud.empty() ? pcl::io::savePCDFileASCII(path, pcl_cloud)
+                           : pcl::io::savePCDFileBinary(path, pcl_cloud);
+  } else if (ext == ".ply") {
+    status = pcl::io::savePLYFileBinary(path, pcl_cloud);
+  } else {
+    throw Error(ErrorCode::kUnsupported,
+                path + ": unsupported cloud format '" + ext + "' (expected .pcd or .ply)");
+  }
+  if (status < 0) throw Error(ErrorCode::kIo, path + ": could not write cloud");
+}
+
+}  // namespace mapdelta

@@ -1,0 +1,52 @@
+#include "mapdelta/common/voxel_grid.hpp"
+
+#include <cmath>
+#include <unordered_map>
+
+#include "mapdelta/common/error.hpp"
+
+namespace mapdelta {
+namespace {
+
+struct Accumulator {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  uint32_t count = 0;
+  uint32_t order = 0;  // first-seen order keeps the output deterministic
+};
+
+// 21 bits per axis: +-1,048,576 voxels, i.e. +-419 km at 0.4 m.
+uint64_t PackKey(int64_t x, int64_t y, int64_t z) {
+  constexpr int64_t kOffset = 1 << 20;
+  constexpr uint64_t kMask = (1u << 21) - 1;
+  return ((static_cast<uint64_t>(x + kOffset) & kMask) << 42) |
+         ((static_cast<uint64_t>(y + kOffset) & kMask) << 21) |
+         (static_cast<uint64_t>(z + kOffset) & kMask);
+}
+
+}  // namespace
+
+PointCloud VoxelDownsample(const PointCloud& cloud, float leaf_m) {
+  if (!(leaf_m > 0.f) || !std::isfinite(leaf_m)) {
+    throw Error(ErrorCode::kInvalidArgument, "voxel leaf size must be positive");
+  }
+  const double inv = 1.0 / leaf_m;
+  std::unordered_map<uint64_t, Accumulator> voxels;
+  voxels.reserve(cloud.size() / 4 + 16);
+  for (const auto& p : cloud) {
+    if (!p.allFinite()) continue;
+    const uint64_t key = PackKey(static_cast<int64_t>(std::floor(p.x() * inv)),
+                                 static_cast<int64_t>(std::floor(p.y() * inv)),
+                                 static_cast<int64_t>(std::floor(p.z() * inv)));
+    auto [it, inserted] = voxels.try_emplace(key);
+    if (inserted) it->second.order = static_cast<uint32_t>(voxels.size() - 1);
+    it->second.sum += p.cast<double>();
+    ++it->second.count;
+  }
+  PointCloud out(voxels.size());
+  for (const auto& [key, acc] : voxels) {
+    out[acc.order] = (acc.sum / acc.count).cast<float>();
+  }
+  return out;
+}
+
+}  // namespace mapdelta
