@@ -5,7 +5,10 @@
 #include <pcl/point_types.h>
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 
+#include "cloud_readers.hpp"
 #include "mapdelta/common/error.hpp"
 
 namespace mapdelta {
@@ -29,22 +32,12 @@ PointCloud ReadCloud(const std::string& path) {
   if (!std::filesystem::is_regular_file(path, ec)) {
     throw Error(ErrorCode::kIo, path + ": no such file");
   }
-  pcl::PointCloud<pcl::PointXYZ> pcl_cloud;
-  int status = -1;
-  try {
-    status = ext == ".pcd" ? pcl::io::loadPCDFile(path, pcl_cloud)
-                           : pcl::io::loadPLYFile(path, pcl_cloud);
-  } catch (const std::exception& e) {
-    throw Error(ErrorCode::kParse, path + ": malformed " + ext.substr(1) + " file: " + e.what());
-  }
-  if (status < 0) {
-    throw Error(ErrorCode::kParse, path + ": malformed " + ext.substr(1) +
-                                       " file (PCL could not parse its header or data)");
-  }
-  PointCloud cloud;
-  cloud.reserve(pcl_cloud.size());
-  for (const auto& p : pcl_cloud.points) cloud.emplace_back(p.x, p.y, p.z);
-  return cloud;
+  // Whole file in memory: the parsers check every declared size against what is present
+  // (PCL's readers do not, and crash on garbage; see cloud_readers.hpp).
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw Error(ErrorCode::kIo, path + ": read failed");
+  return ext == ".pcd" ? detail::ParsePcd(bytes, path) : detail::ParsePly(bytes, path);
 }
 
 void WriteCloud(const std::string& path, const PointCloud& cloud) {

@@ -44,6 +44,28 @@ bool ParseNumbers(const std::string& line, std::vector<double>* values) {
   throw Error(ErrorCode::kParse, path + ":" + std::to_string(line_number) + ": " + what);
 }
 
+// TUM seconds to ns without going through double (which keeps only ~16 digits: a 2014 epoch
+// stamp would lose its last ~100 ns). Falls back to double for exponent forms like "1.4e9".
+int64_t SecondsTextToNs(const std::string& line, double fallback_seconds) {
+  const size_t begin = line.find_first_not_of(" \t");
+  const size_t end = line.find_first_of(" \t,", begin);
+  const std::string text = line.substr(begin, end - begin);
+  const size_t dot = text.find('.');
+  const std::string whole = text.substr(0, dot);
+  const std::string frac = dot == std::string::npos ? "" : text.substr(dot + 1);
+  const auto digits = [](const std::string& s) {
+    return s.find_first_not_of("0123456789") == std::string::npos;
+  };
+  if (whole.empty() || whole.size() > 10 || !digits(whole) || !digits(frac)) {
+    return static_cast<int64_t>(std::llround(fallback_seconds * 1e9));
+  }
+  int64_t ns = std::stoll(whole) * 1000000000LL;
+  int64_t scale = 100000000LL;
+  for (size_t i = 0; i < frac.size() && i < 9; ++i, scale /= 10) ns += (frac[i] - '0') * scale;
+  if (frac.size() > 9 && frac[9] >= '5') ++ns;  // round the tenth fractional digit
+  return ns;
+}
+
 void CheckSorted(const std::string& path, const Trajectory& trajectory) {
   for (size_t i = 1; i < trajectory.size(); ++i) {
     if (trajectory[i].t_ns <= trajectory[i - 1].t_ns) {
@@ -67,7 +89,7 @@ Trajectory ReadTumTrajectory(const std::string& path) {
     }
     const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     if (std::abs(q.norm() - 1.0) > 1e-2) LineError(path, n, "quaternion is not unit length");
-    trajectory.push_back({static_cast<int64_t>(std::llround(v[0] * 1e9)),
+    trajectory.push_back({SecondsTextToNs(line, v[0]),
                           MakeSE3(q, {v[1], v[2], v[3]})});
   }
   CheckSorted(path, trajectory);
