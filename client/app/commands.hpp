@@ -1,0 +1,8 @@
+#pragma once
+// Subcommand entry points of mapdelta-client; argv[0] is the subcommand name.
+namespace mapdelta::client::app {
+
+int RunDisparity(int argc, char** argv);
+int RunConfig(int argc, char** argv);
+
+}  // namespace mapdelta::client::app

@@ -1,0 +1,89 @@
+#pragma once
+// Configuration of every client stage: nested structs with defaults and units in the
+// declaration (defaults from shared/DESIGN.md and the paper's reference config). Loaded from
+// YAML in one place; unknown keys and out-of-range values are all reported at once.
+#include <string>
+
+namespace mapdelta::client {
+
+struct StereoConfig {
+  int num_disparities = 128;     // at reference_width; scaled with the image width
+  int reference_width = 800;     // width num_disparities refers to (the paper's camera)
+  int min_disparity = 0;
+  int block_size = 5;            // odd, pixels
+  int uniqueness_ratio = 10;     // percent margin of the best over the second-best cost
+  int disp12_max_diff = 1;       // left-right consistency tolerance, pixels
+  int speckle_window_size = 100; // pixels; 0 disables speckle filtering
+  int speckle_range = 2;         // disparity variation inside a speckle, pixels
+  int pre_filter_cap = 63;
+  double max_depth_m = 50.0;     // depths beyond this are dropped
+};
+
+struct TemporalFilterConfig {
+  int half_window = 2;     // keyframes i-2..i+2
+  double delta_d_m = 0.5;  // a projection succeeds if depths differ by less than this
+  int alpha = 4;           // keep pixels with at least alpha successful projections
+};
+
+struct KeyframeSelectionConfig {
+  double min_translation_m = 1.0;  // a new keyframe after this much motion ...
+  double min_rotation_deg = 10.0;  // ... or this much rotation ...
+  double max_interval_s = 1.0;     // ... or this much time
+};
+
+struct LocalCloudConfig {
+  int keyframes = 5;          // keyframes aggregated into one local cloud
+  double voxel_m = 0.4;
+  double max_depth_m = 50.0;
+  int pixel_stride = 2;       // sample every n-th pixel (the voxel grid averages anyway)
+};
+
+struct RegistrationConfig {
+  double max_fitness_m = 1.0;        // gate: mean nearest-neighbour distance
+  double max_correction_m = 4.0;     // gate: translation between guess and result
+  double max_correction_deg = 10.0;  // gate: rotation between guess and result
+  double max_correspondence_m = 2.0;
+  int max_iterations = 50;
+  double prior_radius_m = 100.0;     // prior fetched around the vehicle
+  double prior_voxel_m = 0.4;
+  double covariance_scale = 1.0;     // multiplies the registration covariance before fusion
+};
+
+struct FusionConfig {
+  double odom_sigma_rot_rad = 0.002;   // per keyframe step, when the VIO gives no covariance
+  double odom_sigma_trans_m = 0.02;    // per keyframe step ...
+  double odom_sigma_trans_per_m = 0.01;// ... plus this fraction of the step length
+  double huber_delta = 2.0;            // robust loss, in whitened (sigma) units
+  int incremental_iterations = 10;
+  int final_iterations = 100;
+  int final_lag_keyframes = 30;        // keyframes this far behind the newest are final
+  double init_sigma_rot_rad = 0.1;     // prior on the first pose (start-up guess, refined)
+  double init_sigma_trans_m = 2.0;
+};
+
+struct UploadConfig {
+  std::string vehicle_id = "vehicle";
+  double retry_initial_s = 0.2;
+  double retry_max_s = 10.0;
+  double timeout_s = 10.0;
+  double depth_scale = 1000.0;
+};
+
+struct ClientConfig {
+  StereoConfig stereo;
+  TemporalFilterConfig temporal_filter;
+  KeyframeSelectionConfig keyframes;
+  LocalCloudConfig local_cloud;
+  RegistrationConfig registration;
+  FusionConfig fusion;
+  UploadConfig upload;
+};
+
+// Reads a YAML file whose top-level keys are the sections above (all optional). Throws
+// Error(kParse) listing every unknown key, wrong type and out-of-range value in one message.
+ClientConfig LoadClientConfig(const std::string& path);
+ClientConfig ParseClientConfig(const std::string& yaml_text, const std::string& what);
+// The effective configuration as YAML (loadable by LoadClientConfig).
+std::string ToYaml(const ClientConfig& config);
+
+}  // namespace mapdelta::client

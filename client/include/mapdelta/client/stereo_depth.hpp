@@ -1,0 +1,37 @@
+#pragma once
+// Stage 1: dense depth from a rectified stereo pair by OpenCV's semi-global matching
+// (StereoSGBM) with the left-right check, a uniqueness margin, subpixel (1/16 px) disparity
+// and speckle removal. Computed for keyframes only.
+#include <memory>
+
+#include "mapdelta/client/config.hpp"
+#include "mapdelta/client/image.hpp"
+#include "mapdelta/common/camera.hpp"
+#include "mapdelta/common/depth_image.hpp"
+
+namespace mapdelta::client {
+
+class StereoDepth {
+ public:
+  explicit StereoDepth(const StereoConfig& config);
+  ~StereoDepth();
+  StereoDepth(StereoDepth&&) noexcept;
+  StereoDepth& operator=(StereoDepth&&) noexcept;
+
+  // Disparity search range actually used for an image of this width: num_disparities scaled
+  // by width / reference_width, rounded up to a multiple of 16 (SGBM's requirement).
+  int NumDisparitiesFor(int width) const;
+  // Throws Error(kInvalidArgument) if the images are empty or differ in size.
+  DisparityImage ComputeDisparity(const GrayImage& left, const GrayImage& right) const;
+  // depth = fx * baseline / d; 0 where invalid or beyond max_depth_m.
+  DepthImage ComputeDepth(const GrayImage& left, const GrayImage& right,
+                          const StereoRig& rig) const;
+  static DepthImage DepthFromDisparity(const DisparityImage& disparity, const StereoRig& rig,
+                                       double max_depth_m);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mapdelta::client

@@ -1,0 +1,158 @@
+#include "mapdelta/vio/imu_preintegration.hpp"
+
+#include <cmath>
+
+namespace mapdelta::vio {
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
+Eigen::Matrix3d RightJacobianSO3(const Eigen::Vector3d& phi) {
+  const double theta = phi.norm();
+  const Eigen::Matrix3d W = Skew(phi);
+  if (theta < 1e-5) return Eigen::Matrix3d::Identity() - 0.5 * W + W * W / 6.0;
+  const double t2 = theta * theta;
+  return Eigen::Matrix3d::Identity() - (1.0 - std::cos(theta)) / t2 * W +
+         (theta - std::sin(theta)) / (t2 * theta) * W * W;
+}
+
+Eigen::Matrix3d RightJacobianInvSO3(const Eigen::Vector3d& phi) {
+  const double theta = phi.norm();
+  const Eigen::Matrix3d W = Skew(phi);
+  if (theta < 1e-5) return Eigen::Matrix3d::Identity() + 0.5 * W + W * W / 12.0;
+  const double t2 = theta * theta;
+  return Eigen::Matrix3d::Identity() + 0.5 * W +
+         (1.0 / t2 - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta))) * W * W;
+}
+
+Eigen::Quaterniond ExpQ(const Eigen::Vector3d& phi) {
+  const double theta = phi.norm();
+  if (theta < 1e-8) {
+    return Eigen::Quaterniond(1.0, 0.5 * phi.x(), 0.5 * phi.y(), 0.5 * phi.z()).normalized();
+  }
+  return Eigen::Quaterniond(Eigen::AngleAxisd(theta, phi / theta));
+}
+
+Eigen::Vector3d LogQ(const Eigen::Quaterniond& q_in) {
+  Eigen::Quaterniond q = q_in.normalized();
+  if (q.w() < 0) q.coeffs() = -q.coeffs();
+  const double s = q.vec().norm();
+  if (s < 1e-10) return 2.0 * q.vec() / q.w();
+  return 2.0 * std::atan2(s, q.w()) / s * q.vec();
+}
+
+DiscreteImuNoise DiscreteImuNoise::FromDensities(const ImuNoiseDensities& d, double dt_s) {
+  DiscreteImuNoise n;
+  // White noise: a density sigma_c [unit/sqrt(Hz)] sampled at 1/dt has variance sigma_c^2/dt.
+  n.gyro_var = d.gyroscope_noise_density * d.gyroscope_noise_density / dt_s;
+  n.accel_var = d.accelerometer_noise_density * d.accelerometer_noise_density / dt_s;
+  // Random walk: the bias diffuses by variance sigma_c^2 * dt over a step of dt.
+  n.gyro_bias_var = d.gyroscope_random_walk * d.gyroscope_random_walk * dt_s;
+  n.accel_bias_var = d.accelerometer_random_walk * d.accelerometer_random_walk * dt_s;
+  return n;
+}
+
+ImuPreintegration::ImuPreintegration(const ImuNoiseDensities& noise, const Eigen::Vector3d& bg,
+                                     const Eigen::Vector3d& ba)
+    : noise_(noise), bg0_(bg), ba0_(ba) {}
+
+void ImuPreintegration::Reset() {
+  dt_s_ = 0;
+  dR_.setIdentity();
+  dv_.setZero();
+  dp_.setZero();
+  cov_.setZero();
+  jac_.setIdentity();
+}
+
+void ImuPreintegration::Add(const ImuSample& sample) {
+  if (!samples_.empty()) {
+    if (sample.t_ns <= samples_.back().t_ns) return;  // duplicates/out-of-order carry no time
+    Step(samples_.back(), sample);
+  }
+  samples_.push_back(sample);
+}
+
+void ImuPreintegration::Step(const ImuSample& a, const ImuSample& b) {
+  const double dt = 1e-9 * static_cast<double>(b.t_ns - a.t_ns);
+  const Eigen::Vector3d w = 0.5 * (a.gyro + b.gyro) - bg0_;
+  const Eigen::Vector3d acc = 0.5 * (a.accel + b.accel) - ba0_;
+  const Eigen::Matrix3d R = dR_.toRotationMatrix();
+  const Eigen::Vector3d phi = w * dt;
+  const Eigen::Matrix3d Jr = RightJacobianSO3(phi);
+  const Eigen::Matrix3d RA = R * Skew(acc);
+
+  // 1. Linearized error-state transition F and noise input G (see header for the order).
+  Matrix15d F = Matrix15d::Identity();
+  F.block<3, 3>(0, 0) = ExpQ(phi).toRotationMatrix().transpose();
+  F.block<3, 3>(0, 9) = -Jr * dt;
+  F.block<3, 3>(3, 0) = -RA * dt;
+  F.block<3, 3>(3, 12) = -R * dt;
+  F.block<3, 3>(6, 0) = -0.5 * RA * dt * dt;
+  F.block<3, 3>(6, 3) = Eigen::Matrix3d::Identity() * dt;
+  F.block<3, 3>(6, 12) = -0.5 * R * dt * dt;
+  Eigen::Matrix<double, 15, 12> G = Eigen::Matrix<double, 15, 12>::Zero();
+  G.block<3, 3>(0, 0) = Jr * dt;
+  G.block<3, 3>(3, 3) = R * dt;
+  G.block<3, 3>(6, 3) = 0.5 * R * dt * dt;
+  G.block<3, 3>(9, 6).setIdentity();
+  G.block<3, 3>(12, 9).setIdentity();
+  const DiscreteImuNoise n = DiscreteImuNoise::FromDensities(noise_, dt);
+  Eigen::Matrix<double, 12, 1> q;
+  q << Eigen::Vector3d::Constant(n.gyro_var), Eigen::Vector3d::Constant(n.accel_var),
+      Eigen::Vector3d::Constant(n.gyro_bias_var), Eigen::Vector3d::Constant(n.accel_bias_var);
+
+  // 2. Covariance and bias Jacobians (the bias columns of the accumulated transition).
+  cov_ = F * cov_ * F.transpose() + G * q.asDiagonal() * G.transpose();
+  jac_ = F * jac_;
+
+  // 3. Deltas, position first because it uses the old velocity and rotation.
+  dp_ += dv_ * dt + 0.5 * R * acc * dt * dt;
+  dv_ += R * acc * dt;
+  dR_ = (dR_ * ExpQ(phi)).normalized();
+  dt_s_ += dt;
+}
+
+void ImuPreintegration::Reintegrate(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba) {
+  bg0_ = bg;
+  ba0_ = ba;
+  Reset();
+  for (size_t k = 1; k < samples_.size(); ++k) Step(samples_[k - 1], samples_[k]);
+}
+
+void ImuPreintegration::Append(const ImuPreintegration& next) {
+  for (const auto& s : next.samples_) Add(s);
+}
+
+Eigen::Quaterniond ImuPreintegration::CorrectedDR(const Eigen::Vector3d& bg) const {
+  return (dR_ * ExpQ(J_R_bg() * (bg - bg0_))).normalized();
+}
+
+Eigen::Vector3d ImuPreintegration::CorrectedDv(const Eigen::Vector3d& bg,
+                                               const Eigen::Vector3d& ba) const {
+  return dv_ + J_v_bg() * (bg - bg0_) + J_v_ba() * (ba - ba0_);
+}
+
+Eigen::Vector3d ImuPreintegration::CorrectedDp(const Eigen::Vector3d& bg,
+                                               const Eigen::Vector3d& ba) const {
+  return dp_ + J_p_bg() * (bg - bg0_) + J_p_ba() * (ba - ba0_);
+}
+
+bool ImuPreintegration::BiasMovedFar(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba,
+                                     double gyro_limit, double accel_limit) const {
+  return (bg - bg0_).norm() > gyro_limit || (ba - ba0_).norm() > accel_limit;
+}
+
+void ImuPreintegration::Predict(const Eigen::Vector3d& g, const Eigen::Quaterniond& R_i,
+                                const Eigen::Vector3d& p_i, const Eigen::Vector3d& v_i,
+                                Eigen::Quaterniond* R_j, Eigen::Vector3d* p_j,
+                                Eigen::Vector3d* v_j) const {
+  *R_j = (R_i * dR_).normalized();
+  *v_j = v_i + g * dt_s_ + R_i * dv_;
+  *p_j = p_i + v_i * dt_s_ + 0.5 * g * dt_s_ * dt_s_ + R_i * dp_;
+}
+
+}  // namespace mapdelta::vio

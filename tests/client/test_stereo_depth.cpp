@@ -1,0 +1,142 @@
+// Stereo depth on real Middlebury pairs with ground-truth disparity: our production SGBM
+// settings against OpenCV's SGBM with default-like settings, side by side on the same pair.
+#include <gtest/gtest.h>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "mapdelta/client/image.hpp"
+#include "mapdelta/client/stereo_depth.hpp"
+#include "mapdelta/common/error.hpp"
+
+namespace mapdelta::client {
+namespace {
+
+const std::string kStereoDir = std::string(MAPDELTA_TEST_DATA_DIR) + "/stereo/";
+
+struct Scores {
+  double density = 0;  // valid estimates / pixels with ground truth
+  double bad1 = 0;     // |d - gt| > 1 px among valid estimates on GT pixels
+  double bad3 = 0;     // |d - gt| > 3 px ...
+};
+
+Scores Score(const DisparityImage& d, const cv::Mat& gt16, double gt_scale) {
+  size_t gt_pixels = 0, valid = 0, bad1 = 0, bad3 = 0;
+  for (int v = 0; v < d.height; ++v) {
+    for (int u = 0; u < d.width; ++u) {
+      const double g = (gt16.depth() == CV_16U ? gt16.at<uint16_t>(v, u) : gt16.at<uint8_t>(v, u)) /
+                       gt_scale;
+      if (g <= 0) continue;
+      ++gt_pixels;
+      const float e = d.at(u, v);
+      if (!(e > 0.f)) continue;
+      ++valid;
+      bad1 += std::abs(e - g) > 1.0;
+      bad3 += std::abs(e - g) > 3.0;
+    }
+  }
+  return {static_cast<double>(valid) / gt_pixels, static_cast<double>(bad1) / valid,
+          static_cast<double>(bad3) / valid};
+}
+
+DisparityImage FromFixed(const cv::Mat& fixed) {
+  DisparityImage out{fixed.cols, fixed.rows, std::vector<float>(fixed.total(), NAN)};
+  for (int v = 0; v < fixed.rows; ++v) {
+    for (int u = 0; u < fixed.cols; ++u) {
+      const int16_t x = fixed.at<int16_t>(v, u);
+      if (x > 0) out.disparity_px[static_cast<size_t>(v) * fixed.cols + u] = x / 16.f;
+    }
+  }
+  return out;
+}
+
+// OpenCV's SGBM with only the range and block size set (everything else at its defaults:
+// P1 = P2 = 0, no uniqueness, no left-right check, no speckle filter).
+DisparityImage DefaultLikeSgbm(const std::string& left, const std::string& right, int num_disp) {
+  const cv::Mat l = cv::imread(left, cv::IMREAD_GRAYSCALE);
+  const cv::Mat r = cv::imread(right, cv::IMREAD_GRAYSCALE);
+  auto sgbm = cv::StereoSGBM::create(0, num_disp, 3);
+  cv::Mat fixed;
+  sgbm->compute(l, r, fixed);
+  return FromFixed(fixed);
+}
+
+void CheckPair(const std::string& name, const std::string& left, const std::string& right,
+               const std::string& gt, double gt_scale) {
+  const StereoDepth stereo(StereoConfig{});
+  const GrayImage l = ReadGrayImage(kStereoDir + left);
+  const GrayImage r = ReadGrayImage(kStereoDir + right);
+  const cv::Mat gt16 = cv::imread(kStereoDir + gt, cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(gt16.empty());
+  ASSERT_EQ(gt16.cols, l.width);
+  const int num_disp = stereo.NumDisparitiesFor(l.width);
+  const Scores ours = Score(stereo.ComputeDisparity(l, r), gt16, gt_scale);
+  const Scores base = Score(DefaultLikeSgbm(kStereoDir + left, kStereoDir + right, num_disp),
+                            gt16, gt_scale);
+  std::printf("[%s %dx%d, %d disparities]       density  bad>1px  bad>3px\n", name.c_str(),
+              l.width, l.height, num_disp);
+  std::printf("  mapdelta production SGBM    %6.3f   %6.3f   %6.3f\n", ours.density, ours.bad1,
+              ours.bad3);
+  std::printf("  OpenCV SGBM default-like    %6.3f   %6.3f   %6.3f\n", base.density, base.bad1,
+              base.bad3);
+  EXPECT_LE(ours.bad1, base.bad1) << name;
+  EXPECT_LE(ours.bad3, base.bad3) << name;
+  // The left-right check and uniqueness margin trade density for correctness; keep most of it
+  // (occluded pixels, ~10-15% here, cannot be matched by any method).
+  EXPECT_GE(ours.density, 0.70) << name;
+  // Bad pixels counted over all GT pixels (missing = bad) must not get worse either.
+  EXPECT_LE(1.0 - ours.density * (1.0 - ours.bad1), 1.0 - base.density * (1.0 - base.bad1) + 0.02)
+      << name;
+}
+
+TEST(StereoDepth, MiddleburyConesBeatsDefaultSgbm) {
+  CheckPair("cones", "cones/im2.png", "cones/im6.png", "cones/disp2.png", 4.0);
+}
+
+TEST(StereoDepth, MiddleburyAloeBeatsDefaultSgbm) {
+  CheckPair("aloe", "aloe/aloeL.jpg", "aloe/aloeR.jpg", "aloe/aloeGT.png", 1.0);
+}
+
+TEST(StereoDepth, DisparityScalesWithWidthAndDepthFollowsBaseline) {
+  const StereoDepth stereo(StereoConfig{});
+  EXPECT_EQ(stereo.NumDisparitiesFor(800), 128);
+  EXPECT_EQ(stereo.NumDisparitiesFor(400), 64);
+  EXPECT_EQ(stereo.NumDisparitiesFor(450), 80);  // 72 rounded up to a multiple of 16
+  StereoRig rig;
+  rig.baseline_m = 0.5;
+  DisparityImage d{3, 1, {10.f, NAN, 2.f}};
+  const DepthImage depth = StereoDepth::DepthFromDisparity(d, rig, 50.0);
+  EXPECT_FLOAT_EQ(depth.depth_m[0], 400.f * 0.5f / 10.f);
+  EXPECT_EQ(depth.depth_m[1], 0.f);
+  EXPECT_EQ(depth.depth_m[2], 0.f);  // 100 m is beyond max depth
+}
+
+TEST(StereoDepth, RejectsMismatchedImages) {
+  const StereoDepth stereo(StereoConfig{});
+  GrayImage a{4, 4, std::vector<uint8_t>(16)}, b{5, 4, std::vector<uint8_t>(20)};
+  EXPECT_THROW(stereo.ComputeDisparity(a, b), Error);
+  EXPECT_THROW(stereo.ComputeDisparity(GrayImage{}, GrayImage{}), Error);
+  EXPECT_THROW(ReadGrayImage(kStereoDir + "missing.png"), Error);
+}
+
+TEST(StereoDepth, PfmRoundTrip) {
+  const auto path = (std::filesystem::temp_directory_path() / "mapdelta_client_rt.pfm").string();
+  DisparityImage d{3, 2, {1.5f, NAN, 3.f, 4.f, 0.25f, 6.f}};
+  WriteDisparity(path, d);
+  const DisparityImage back = ReadDisparityPfm(path);
+  ASSERT_EQ(back.width, 3);
+  ASSERT_EQ(back.height, 2);
+  for (size_t i = 0; i < d.disparity_px.size(); ++i) {
+    if (std::isnan(d.disparity_px[i])) EXPECT_TRUE(std::isnan(back.disparity_px[i]));
+    else EXPECT_EQ(back.disparity_px[i], d.disparity_px[i]);
+  }
+  EXPECT_THROW(WriteDisparity(path + ".jpg", d), Error);
+}
+
+}  // namespace
+}  // namespace mapdelta::client
