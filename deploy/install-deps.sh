@@ -10,6 +10,11 @@ packages=(
   libnanoflann-dev libembree-dev libgtest-dev libgmock-dev libbenchmark-dev
   curl gnuplot-nox
 )
+# Web map (web/, tools/build-web.sh) and its browser test (tests/web): Debian's Chromium, and
+# Node.js with npm unless a node with npm is already there (NodeSource's nodejs bundles npm and
+# conflicts with Debian's npm package). Vite 7 needs Node >= 20.19.
+packages+=(chromium)
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -1,0 +1,121 @@
+// REST client for mapdelta-server (same origin; contract in docs/api.md and
+// server/openapi.yaml). Every call carries the bearer token; errors become ApiError with the
+// server's {"error":{"code","message"}} body so the page can say what went wrong.
+
+export class ApiError extends Error {
+  constructor(status, code, message, path) {
+    super(`${path}: ${status} ${code}: ${message}`);
+    this.status = status;
+    this.code = code;
+  }
+}
+
+export class Api {
+  constructor(getToken, base = '') {
+    this.getToken = getToken;
+    this.base = base;
+  }
+
+  async request(path, { method = 'GET', body, accept = 'json' } = {}) {
+    const headers = {};
+    const token = this.getToken();
+    if (token) headers.Authorization = `Bearer ${token}`;
+    if (body !== undefined) headers['Content-Type'] = 'application/json';
+    const res = await fetch(this.base + path, {
+      method, headers, body: body === undefined ? undefined : JSON.stringify(body),
+    });
+    if (!res.ok) {
+      let code = 'http_error', message = res.statusText;
+      try {
+        const j = await res.json();
+        if (j && j.error) ({ code = code, message = message } = j.error);
+      } catch { /* body was not JSON: keep the status text */ }
+      throw new ApiError(res.status, code, message, path);
+    }
+    if (accept === 'bytes') return res.arrayBuffer();
+    return res.json();
+  }
+
+  // Changed tiles intersecting bbox [minx,miny,maxx,maxy]; follows pages up to maxPages so a
+  // view never asks for more than it can show.
+  async changedTiles(bbox, minConfidence = 0, maxPages = 20) {
+    const tiles = [];
+    let priorVersion = null, tileSize = null, complete = true;
+    for (let page = 1; page <= maxPages; page++) {
+      const q = new URLSearchParams({
+        bbox: bbox.map((v) => v.toFixed(2)).join(','),
+        min_confidence: String(minConfidence), page: String(page), page_size: '200',
+      });
+      const j = await this.request(`/v1/changes/tiles?${q}`);
+      priorVersion = j.prior_version ?? priorVersion;
+      tileSize = j.tile_size_m ?? tileSize;
+      const rows = j.tiles ?? j.items ?? [];
+      tiles.push(...rows.map(normalizeTileSummary));
+      const total = j.total ?? j.total_count;
+      if (rows.length === 0 || (total !== undefined ? tiles.length >= total : rows.length < 200)) {
+        complete = true;
+        break;
+      }
+      complete = page < maxPages;
+    }
+    return { tiles, priorVersion, tileSize, complete };
+  }
+
+  async priorTilesNear(x, y, radius) {
+    const q = new URLSearchParams({ x: x.toFixed(2), y: y.toFixed(2), radius: radius.toFixed(1) });
+    const j = await this.request(`/v1/prior/tiles?${q}`);
+    const rows = Array.isArray(j) ? j : (j.tiles ?? []);
+    return {
+      priorVersion: j.prior_version ?? null,
+      tileSize: j.tile_size_m ?? null,
+      tiles: rows.map((r) => ({ tile: r.tile ?? r.tile_id, points: r.points ?? r.num_points ?? 0 })),
+    };
+  }
+
+  tileChanges(tile, minConfidence = 0) {
+    const q = new URLSearchParams({ format: 'json', min_confidence: String(minConfidence) });
+    return this.request(`/v1/changes/tiles/${encodeURIComponent(tile)}?${q}`);
+  }
+
+  tileChangeCloud(tile, kind, minConfidence = 0) {
+    const q = new URLSearchParams({ format: 'pcd', kind, min_confidence: String(minConfidence) });
+    return this.request(`/v1/changes/tiles/${encodeURIComponent(tile)}?${q}`, { accept: 'bytes' });
+  }
+
+  priorTileCloud(tile, version) {
+    const q = new URLSearchParams({ format: 'pcd' });
+    if (version) q.set('version', String(version));
+    return this.request(`/v1/prior/tiles/${encodeURIComponent(tile)}?${q}`, { accept: 'bytes' });
+  }
+
+  startRefresh(tile) {
+    return this.request('/v1/admin/jobs', { method: 'POST', body: { type: 'refresh', tiles: [tile] } });
+  }
+
+  job(id) { return this.request(`/v1/admin/jobs/${encodeURIComponent(id)}`); }
+
+  // Admin role probe: only admins may list jobs. 401/403 mean "not admin", anything else is real.
+  async isAdmin() {
+    try {
+      await this.request('/v1/admin/jobs?page_size=1');
+      return true;
+    } catch (e) {
+      if (e instanceof ApiError && (e.status === 401 || e.status === 403)) return false;
+      throw e;
+    }
+  }
+}
+
+// One changed-tile row in the page's own field names, whatever spelling the server uses.
+export function normalizeTileSummary(r) {
+  const num = (...vals) => { for (const v of vals) if (typeof v === 'number') return v; return 0; };
+  return {
+    tile: r.tile ?? r.tile_id,
+    state: r.state ?? r.change_state ?? 'candidate',
+    confidence: num(r.confidence, r.max_confidence),
+    new_points: num(r.new_points, r.num_new, r.counts?.new, r.new),
+    removed_points: num(r.removed_points, r.num_removed, r.counts?.removed, r.removed),
+    updated_at: r.updated_at ?? r.last_seen ?? null,
+    sessions: num(r.sessions, r.num_sessions, r.session_count),
+  };
+}

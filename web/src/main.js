@@ -1,0 +1,180 @@
+// Page wiring: token, top view + list of changed tiles in view, tile detail (3D, evidence,
+// versions), admin refresh. Everything comes from the same-origin REST API.
+import './style.css';
+import { Api } from './api.js';
+import { parseCloud } from './cloudparse.js';
+import { legendHtml } from './colors.js';
+import { renderEvidence, summarizeReport } from './evidence.js';
+import { runRefresh } from './jobs.js';
+import { TileList } from './tilelist.js';
+import { TopView } from './topview.js';
+import { TileView3D } from './tileview3d.js';
+
+const TOKEN_KEY = 'mapdelta.token';
+const $ = (id) => document.getElementById(id);
+const api = new Api(() => localStorage.getItem(TOKEN_KEY) || '');
+const state = { priorVersion: null, tileSize: 50, summaries: new Map(), tile: null, version: null };
+let loadSeq = 0;
+
+function status(text, isError = false) {
+  $('status').textContent = text;
+  $('status').classList.toggle('error', isError);
+}
+
+const top = new TopView($('topview'), { onViewChange: loadView, onPick: pickTile });
+const list = new TileList($('tile-list'), $('tile-count'), pickTile);
+const view = new TileView3D($('view3d'), $('view3d-info'));
+$('legend-2d').innerHTML = legendHtml();
+
+function setPriorVersion(v) {
+  if (v === null || v === undefined) return;
+  state.priorVersion = v;
+  $('prior-version').textContent = `prior v${v}`;
+  const sel = $('version-select');
+  if (sel.options.length !== v) {
+    sel.replaceChildren(...Array.from({ length: v }, (_, i) => new Option(`v${i + 1}`, String(i + 1))));
+  }
+  if (!state.version) sel.value = String(v);
+  $('before-after').disabled = v < 2;
+}
+
+// Only the tiles in the visible box are requested; prior tiles are skipped when zoomed out
+// so far that they would be sub-pixel anyway.
+async function loadView(bbox) {
+  if (!localStorage.getItem(TOKEN_KEY)) return;
+  const seq = ++loadSeq;
+  try {
+    const minConf = Number($('min-confidence').value) || 0;
+    const changes = await api.changedTiles(bbox, minConf);
+    const w = bbox[2] - bbox[0], h = bbox[3] - bbox[1];
+    const prior = (w * h) / (state.tileSize ** 2) < 2500
+      ? await api.priorTilesNear((bbox[0] + bbox[2]) / 2, (bbox[1] + bbox[3]) / 2, Math.hypot(w, h) / 2)
+      : { tiles: [] };
+    if (seq !== loadSeq) return;   // a newer view superseded this one
+    setPriorVersion(changes.priorVersion ?? prior.priorVersion);
+    if (changes.tileSize || prior.tileSize) state.tileSize = changes.tileSize ?? prior.tileSize;
+    top.tileSize = state.tileSize;
+    state.summaries = new Map(changes.tiles.map((t) => [t.tile, t]));
+    top.changed = state.summaries;
+    top.priorTiles = new Map(prior.tiles.map((t) => [t.tile, t.points]));
+    top.draw();
+    list.set(changes.tiles, changes.complete);
+    status(`${changes.tiles.length} changed / ${prior.tiles.length} prior tiles in view`);
+  } catch (e) {
+    if (seq === loadSeq) status(e.message, true);
+  }
+}
+
+// First view: ask once over a wide box where the changes and the prior tiles are, then fit.
+async function discover() {
+  try {
+    const wide = [-1e5, -1e5, 1e5, 1e5];
+    const [changes, prior] = await Promise.all([
+      api.changedTiles(wide, 0, 1), api.priorTilesNear(0, 0, 1e5).catch(() => ({ tiles: [] }))]);
+    state.tileSize = changes.tileSize ?? prior.tileSize ?? state.tileSize;
+    top.tileSize = state.tileSize;
+    setPriorVersion(changes.priorVersion ?? prior.priorVersion);
+    const ids = [...changes.tiles.map((t) => t.tile), ...prior.tiles.map((t) => t.tile)];
+    if (ids.length === 0) { status('no prior map and no changes yet'); top.fitTo([-100, -100, 100, 100]); return; }
+    const s = state.tileSize, xy = ids.map((id) => id.split('_').map(Number));
+    top.fitTo([Math.min(...xy.map((p) => p[0])) * s, Math.min(...xy.map((p) => p[1])) * s,
+      (Math.max(...xy.map((p) => p[0])) + 1) * s, (Math.max(...xy.map((p) => p[1])) + 1) * s]);
+  } catch (e) {
+    status(e.message, true);
+  }
+}
+
+async function loadCloud(promise) {
+  try { return parseCloud(await promise); } catch (e) { if (e.status === 404) return null; throw e; }
+}
+
+async function pickTile(tile) {
+  state.tile = tile;
+  top.selected = tile; top.draw();
+  list.select(tile);
+  $('tile-title').textContent = tile;
+  document.body.dataset.tileLoaded = '';
+  const [ix, iy] = tile.split('_').map(Number);
+  const s = state.tileSize;
+  view.setTile([(ix + 0.5) * s, (iy + 0.5) * s], s);
+  view.info(`loading ${tile}…`);
+  try {
+    const minConf = Number($('min-confidence').value) || 0;
+    const summary = state.summaries.get(tile);
+    const [report, added, removed] = await Promise.all([
+      summary ? api.tileChanges(tile, minConf) : Promise.resolve({ tile, state: 'none' }),
+      summary ? loadCloud(api.tileChangeCloud(tile, 'new', minConf)) : null,
+      summary ? loadCloud(api.tileChangeCloud(tile, 'removed', minConf)) : null,
+    ]);
+    if (state.tile !== tile) return;
+    renderEvidence($('evidence'), summarizeReport(report, summary ?? { tile, state: 'none' }));
+    view.setLayer('new', added);
+    view.setLayer('removed', removed);
+    await loadPrior(tile, state.version ?? state.priorVersion);
+    view.frame();
+    $('refresh-tile').disabled = !state.isAdmin;
+    document.body.dataset.tileLoaded = tile;
+  } catch (e) {
+    view.info(`${tile}: ${e.message}`);
+    status(e.message, true);
+  }
+}
+
+async function loadPrior(tile, version) {
+  const prior = await loadCloud(api.priorTileCloud(tile, version));
+  if (state.tile !== tile) return;
+  view.setLayer('prior', prior);
+  ['prior', 'new', 'removed'].forEach((k) => view.setVisible(k, $(`show-${k}`).checked));
+  const c = view.counts();
+  view.info(`tile ${tile}   prior v${version ?? '?'}: ${c.prior ?? 0} pts\n`
+    + `new: ${c.new ?? 0} pts   removed: ${c.removed ?? 0} pts`);
+  view.render();
+}
+
+for (const k of ['prior', 'new', 'removed']) {
+  $(`show-${k}`).addEventListener('change', (e) => view.setVisible(k, e.target.checked));
+}
+$('version-select').addEventListener('change', async (e) => {
+  state.version = Number(e.target.value);
+  if (state.tile) await loadPrior(state.tile, state.version).catch((err) => status(err.message, true));
+});
+$('before-after').addEventListener('click', () => {
+  const latest = state.priorVersion;
+  const sel = $('version-select');
+  sel.value = String(Number(sel.value) === latest ? latest - 1 : latest);
+  sel.dispatchEvent(new Event('change'));
+});
+$('min-confidence').addEventListener('change', () => loadView(top.bbox()));
+$('refresh-tile').addEventListener('click', async () => {
+  if (!state.tile) return;
+  const tile = state.tile;
+  $('refresh-tile').disabled = true;
+  await runRefresh(api, tile, $('job-status'), {
+    onDone: async () => {
+      state.version = null;
+      await loadView(top.bbox());
+      if (state.tile === tile) await pickTile(tile);
+    },
+  });
+  $('refresh-tile').disabled = !state.isAdmin;
+});
+
+async function start() {
+  const token = localStorage.getItem(TOKEN_KEY);
+  $('token-input').value = token ?? '';
+  if (!token) { status('enter a reader or admin token'); return; }
+  try {
+    state.isAdmin = await api.isAdmin();
+    $('role').textContent = state.isAdmin ? 'admin' : 'reader';
+  } catch (e) {
+    status(e.message, true);
+  }
+  await discover();
+}
+
+$('token-form').addEventListener('submit', (e) => {
+  e.preventDefault();
+  localStorage.setItem(TOKEN_KEY, $('token-input').value.trim());
+  start();
+});
+start();

@@ -1,0 +1,100 @@
+// three.js view of one tile: prior points grey, new points green, removed points magenta,
+// with orbit controls. Points are shifted by the tile's centre so float32 keeps millimetres
+// far from the map origin. preserveDrawingBuffer lets tests and screenshots read the canvas.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+
+export const LAYER_COLORS = { prior: 0x9e9e9e, new: 0x43a047, removed: 0xd81b60 };
+
+export class TileView3D {
+  constructor(canvas, infoEl) {
+    this.canvas = canvas;
+    this.infoEl = infoEl;
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(window.devicePixelRatio || 1);
+    this.renderer.setClearColor(0x1b1f23);
+    this.scene = new THREE.Scene();
+    this.camera = new THREE.PerspectiveCamera(50, 1, 0.1, 5000);
+    this.camera.up.set(0, 0, 1);     // map frame is z up
+    this.controls = new OrbitControls(this.camera, canvas);
+    this.controls.addEventListener('change', () => this.render());
+    this.layers = {};
+    this.origin = new THREE.Vector3();
+    this.scene.add(new THREE.GridHelper(50, 10, 0x455a64, 0x2e3a40).rotateX(Math.PI / 2));
+    new ResizeObserver(() => this.resize()).observe(canvas);
+  }
+
+  resize() {
+    const r = this.canvas.getBoundingClientRect();
+    if (r.width < 1 || r.height < 1) return;
+    this.renderer.setSize(r.width, r.height, false);
+    this.camera.aspect = r.width / r.height;
+    this.camera.updateProjectionMatrix();
+    this.render();
+  }
+
+  // Tile centre (map metres) and edge length; the grid and camera frame this square.
+  setTile(center, size) {
+    this.origin.set(center[0], center[1], 0);
+    for (const name of Object.keys(this.layers)) this.setLayer(name, null);
+    const grid = this.scene.children.find((c) => c.type === 'GridHelper');
+    grid.scale.setScalar(size / 50);
+    this.size = size;
+  }
+
+  // xyz: Float32Array in map coordinates, or null to drop the layer.
+  setLayer(name, xyz, pointSize = 0.35) {
+    const old = this.layers[name];
+    if (old) { this.scene.remove(old); old.geometry.dispose(); old.material.dispose(); }
+    delete this.layers[name];
+    if (!xyz) return;
+    const local = new Float32Array(xyz.length);
+    for (let i = 0; i < xyz.length; i += 3) {
+      local[i] = xyz[i] - this.origin.x;
+      local[i + 1] = xyz[i + 1] - this.origin.y;
+      local[i + 2] = xyz[i + 2];
+    }
+    const g = new THREE.BufferGeometry();
+    g.setAttribute('position', new THREE.BufferAttribute(local, 3));
+    g.computeBoundingSphere();
+    const m = new THREE.PointsMaterial({
+      color: LAYER_COLORS[name] ?? 0xffffff, size: name === 'prior' ? pointSize : pointSize * 1.8,
+      sizeAttenuation: true,
+    });
+    const pts = new THREE.Points(g, m);
+    pts.name = name;
+    this.layers[name] = pts;
+    this.scene.add(pts);
+  }
+
+  setVisible(name, visible) {
+    if (this.layers[name]) this.layers[name].visible = visible;
+    this.render();
+  }
+
+  counts() {
+    const out = {};
+    for (const [k, v] of Object.entries(this.layers)) out[k] = v.geometry.getAttribute('position').count;
+    return out;
+  }
+
+  // Looks at everything loaded from the south-west, above, so buildings read as 3D.
+  frame() {
+    const box = new THREE.Box3();
+    for (const l of Object.values(this.layers)) box.expandByObject(l);
+    if (box.isEmpty()) box.setFromCenterAndSize(new THREE.Vector3(), new THREE.Vector3(this.size, this.size, 10));
+    const c = box.getCenter(new THREE.Vector3());
+    const r = Math.max(5, box.getSize(new THREE.Vector3()).length() / 2);
+    this.controls.target.copy(c);
+    this.camera.position.set(c.x - r * 1.1, c.y - r * 1.3, c.z + r * 1.1);
+    this.camera.near = r / 200;
+    this.camera.far = r * 20;
+    this.camera.updateProjectionMatrix();
+    this.controls.update();
+    this.render();
+  }
+
+  info(text) { this.infoEl.textContent = text; }
+
+  render() { this.renderer.render(this.scene, this.camera); }
+}
