@@ -1,0 +1,81 @@
+// The browser half of the end-to-end test: open the page, enter the token, find the changed
+// tile in the list, open its 3D view, check content and pixels, run an admin refresh and
+// flip before/after. `expected` comes from the REST API (the same numbers the page must show).
+import fs from 'node:fs';
+import path from 'node:path';
+import { canvasColourCounts, check, launchChromium } from './browser.mjs';
+
+const CLEAR = [0x1b, 0x1f, 0x23];   // TileView3D clear colour
+const COLOURS = { prior: [0x9e, 0x9e, 0x9e], new: [0x43, 0xa0, 0x47], removed: [0xd8, 0x1b, 0x60], clear: CLEAR };
+
+export async function runPageChecks({ baseUrl, adminToken, expected, outDir, screenshots, log }) {
+  const context = await launchChromium(outDir);
+  try {
+    const page = context.pages()[0] ?? await context.newPage();
+    const errors = [];
+    page.on('pageerror', (e) => errors.push(String(e)));
+    page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+
+    await page.goto(baseUrl + '/', { waitUntil: 'load' });
+    await page.fill('#token-input', adminToken);
+    await page.click('#token-form button[type=submit]');
+    check(await page.evaluate(() => localStorage.getItem('mapdelta.token')) === adminToken,
+      'token stored in localStorage');
+
+    // 1. The changed tile shows up in the list with the API's counts.
+    const row = page.locator(`#tile-list tbody tr[data-tile="${expected.tile}"]`);
+    await row.waitFor({ timeout: 20000 });
+    const cells = await row.locator('td').allTextContents();
+    log(`list row: ${cells.join(' | ')}`);
+    check(cells[0] === expected.tile, `row tile id ${cells[0]} == ${expected.tile}`);
+    check(Number(cells[3]) === expected.new_points, `row new ${cells[3]} == API ${expected.new_points}`);
+    check(Number(cells[4]) === expected.removed_points, `row removed ${cells[4]} == API ${expected.removed_points}`);
+    check((await page.textContent('#prior-version')) === `prior v${expected.prior_version}`, 'prior version badge');
+    check((await page.textContent('#role')) === 'admin', 'admin role detected');
+
+    // 2. Open its 3D view and evidence.
+    await row.click();
+    await page.waitForSelector(`body[data-tile-loaded="${expected.tile}"]`, { timeout: 30000 });
+    const field = (f) => page.textContent(`#evidence [data-field="${f}"]`);
+    check((await field('tile')) === expected.tile, 'evidence tile id');
+    check(Number(await field('new')) === expected.new_points, 'evidence new count');
+    check(Number(await field('removed')) === expected.removed_points, 'evidence removed count');
+    const info = await page.textContent('#view3d-info');
+    log(`3D overlay: ${info.replace(/\n/g, ' / ')}`);
+    const px = await canvasColourCounts(page, '#view3d', COLOURS);
+    log(`3D pixels: ${JSON.stringify(px)}`);
+    check(px.clear < px.total, '3D canvas is not blank');
+    check(px.prior > 50, `prior (grey) points drawn: ${px.prior} px`);
+    check(px.new > 20, `new (green) points drawn: ${px.new} px`);
+    check(px.removed > 20, `removed (magenta) points drawn: ${px.removed} px`);
+    fs.mkdirSync(path.dirname(screenshots.main), { recursive: true });
+    await page.screenshot({ path: screenshots.main });
+
+    // 3. Admin refresh of that tile: live job status to a final state, new prior version.
+    await page.click('#refresh-tile');
+    await page.waitForFunction(() => ['succeeded', 'failed', 'cancelled']
+      .includes(document.querySelector('#job-status').dataset.state), null, { timeout: 60000 });
+    const job = await page.textContent('#job-status');
+    log(`job status: ${job}`);
+    check(job.includes('succeeded'), `refresh job succeeded (${job})`);
+    const v2 = expected.prior_version + 1;
+    await page.waitForFunction((v) => document.querySelector('#prior-version').textContent === `prior v${v}`, v2, { timeout: 10000 });
+    await page.waitForSelector(`body[data-tile-loaded="${expected.tile}"]`, { timeout: 30000 });
+
+    // 4. Before/after: the refreshed tile's prior differs between the two versions.
+    const priorCount = async () => Number((await page.textContent('#view3d-info')).match(/prior v\d+: (\d+) pts/)[1]);
+    const after = await priorCount();
+    await page.click('#before-after');
+    await page.waitForFunction((v) => /prior v(\d+):/.exec(document.querySelector('#view3d-info').textContent)?.[1] === String(v),
+      expected.prior_version, { timeout: 10000 });
+    const before = await priorCount();
+    log(`prior points of ${expected.tile}: v${expected.prior_version} ${before}, v${v2} ${after}`);
+    check(before === expected.prior_points_before, `before = API v${expected.prior_version} count ${expected.prior_points_before}`);
+    check(after !== before, 'refresh changed the tile\'s prior points');
+    if (screenshots.before) await page.screenshot({ path: screenshots.before });
+    check(errors.length === 0, `no page errors (${errors.join('; ')})`);
+    return { before, after, pixels: px };
+  } finally {
+    await context.close();
+  }
+}
