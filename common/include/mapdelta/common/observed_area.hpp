@@ -1,0 +1,58 @@
+#pragma once
+// The observed area A_obs of the paper (Sec. III-B, step 3): the voxels that some keyframe's
+// rays passed through or ended in, kept in an OctoMap OcTree of resolution rho_o. OctoMap stays
+// inside observed_area.cpp (pimpl); this header is cheap to include.
+#include <memory>
+#include <string>
+
+#include "mapdelta/common/camera.hpp"
+#include "mapdelta/common/depth_image.hpp"
+#include "mapdelta/common/point_cloud.hpp"
+#include "mapdelta/common/pose.hpp"
+
+namespace mapdelta {
+
+struct ObservedAreaParams {
+  double resolution_m = 0.8;       // rho_o: octree voxel edge
+  double max_depth_m = 50.0;       // th_d: depths at or beyond this are not used as hits
+  double free_ray_m = 20.0;        // th_f: depth of the free-space ray cast for pixels without depth
+  double prefilter_voxel_m = 0.8;  // ray end points are voxel-filtered first (big speed-up)
+  int pixel_stride = 1;            // use every n-th pixel in u and v
+};
+
+class ObservedArea {
+ public:
+  explicit ObservedArea(double resolution_m = 0.8);
+  ~ObservedArea();
+  ObservedArea(const ObservedArea& other);
+  ObservedArea& operator=(const ObservedArea& other);
+  ObservedArea(ObservedArea&&) noexcept;
+  ObservedArea& operator=(ObservedArea&&) noexcept;
+
+  // Rays from the camera centre to every valid depth < max_depth_m (end voxel occupied, the
+  // rest free), and free rays to depth free_ray_m for pixels with no depth (or depth beyond
+  // max_depth_m, where the first free_ray_m are still known to be free). Throws
+  // Error(kInvalidArgument) when the depth image does not match the camera or params are bad.
+  void InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_cam, const DepthImage& depth,
+                      const ObservedAreaParams& params);
+  // True if the voxel holding p_map is known (free or occupied).
+  bool IsObserved(const Point& p_map) const;
+  // Adds the other area's evidence (log-odds) voxel by voxel; resolutions must match.
+  void Merge(const ObservedArea& other);
+
+  // OctoMap .bt (readable by octovis and octomap tools). Load/Deserialize validate the whole
+  // bit stream before OctoMap sees it and throw Error(kParse) naming the file or "octree bytes".
+  void Save(const std::string& bt_path) const;
+  static ObservedArea Load(const std::string& bt_path);
+  std::string SerializeBinary() const;
+  static ObservedArea DeserializeBinary(const std::string& bytes);
+
+  size_t NumKnownLeaves() const;
+  double resolution_m() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mapdelta

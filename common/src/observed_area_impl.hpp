@@ -1,0 +1,24 @@
+#pragma once
+// Internal: the OcTree behind ObservedArea, shared by observed_area.cpp and observed_area_io.cpp.
+#include <octomap/OcTree.h>
+
+#include <string>
+#include <string_view>
+
+#include "mapdelta/common/observed_area.hpp"
+
+namespace mapdelta {
+
+struct ObservedArea::Impl {
+  explicit Impl(double resolution_m) : tree(resolution_m) {}
+  octomap::OcTree tree;
+};
+
+namespace detail {
+// Checks an OctoMap binary (.bt) stream completely: header lines, resolution, and that the
+// node bit stream is well formed, no deeper than 16 levels, has exactly `size` nodes and ends
+// where the bytes end. Returns the resolution; throws Error(kParse) prefixed with `what`.
+double ValidateOctomapBinary(std::string_view bytes, const std::string& what);
+}  // namespace detail
+
+}  // namespace mapdelta
