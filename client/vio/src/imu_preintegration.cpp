@@ -83,21 +83,29 @@ void ImuPreintegration::Step(const ImuSample& a, const ImuSample& b) {
   const Eigen::Matrix3d R = dR_.toRotationMatrix();
   const Eigen::Vector3d phi = w * dt;
   const Eigen::Matrix3d Jr = RightJacobianSO3(phi);
-  const Eigen::Matrix3d RA = R * Skew(acc);
+  // The averaged acceleration is rotated by the mid-step rotation R * Exp(phi / 2): a
+  // start-of-step rotation leaves a first-order error of |w| dt |a| per step.
+  const Eigen::Matrix3d E_half = ExpQ(0.5 * phi).toRotationMatrix();
+  const Eigen::Matrix3d R_half = R * E_half;
+  const Eigen::Matrix3d RA = R_half * Skew(acc);
+  const Eigen::Matrix3d RA_theta = RA * E_half.transpose();            // d/d(dtheta)
+  const Eigen::Matrix3d RA_bg = 0.5 * dt * RA * RightJacobianSO3(0.5 * phi);  // d/d(bg)
 
   // 1. Linearized error-state transition F and noise input G (see header for the order).
   Matrix15d F = Matrix15d::Identity();
   F.block<3, 3>(0, 0) = ExpQ(phi).toRotationMatrix().transpose();
   F.block<3, 3>(0, 9) = -Jr * dt;
-  F.block<3, 3>(3, 0) = -RA * dt;
-  F.block<3, 3>(3, 12) = -R * dt;
-  F.block<3, 3>(6, 0) = -0.5 * RA * dt * dt;
+  F.block<3, 3>(3, 0) = -RA_theta * dt;
+  F.block<3, 3>(3, 9) = RA_bg * dt;
+  F.block<3, 3>(3, 12) = -R_half * dt;
+  F.block<3, 3>(6, 0) = -0.5 * RA_theta * dt * dt;
   F.block<3, 3>(6, 3) = Eigen::Matrix3d::Identity() * dt;
-  F.block<3, 3>(6, 12) = -0.5 * R * dt * dt;
+  F.block<3, 3>(6, 9) = 0.5 * RA_bg * dt * dt;
+  F.block<3, 3>(6, 12) = -0.5 * R_half * dt * dt;
   Eigen::Matrix<double, 15, 12> G = Eigen::Matrix<double, 15, 12>::Zero();
   G.block<3, 3>(0, 0) = Jr * dt;
-  G.block<3, 3>(3, 3) = R * dt;
-  G.block<3, 3>(6, 3) = 0.5 * R * dt * dt;
+  G.block<3, 3>(3, 3) = R_half * dt;
+  G.block<3, 3>(6, 3) = 0.5 * R_half * dt * dt;
   G.block<3, 3>(9, 6).setIdentity();
   G.block<3, 3>(12, 9).setIdentity();
   const DiscreteImuNoise n = DiscreteImuNoise::FromDensities(noise_, dt);
@@ -110,8 +118,8 @@ void ImuPreintegration::Step(const ImuSample& a, const ImuSample& b) {
   jac_ = F * jac_;
 
   // 3. Deltas, position first because it uses the old velocity and rotation.
-  dp_ += dv_ * dt + 0.5 * R * acc * dt * dt;
-  dv_ += R * acc * dt;
+  dp_ += dv_ * dt + 0.5 * R_half * acc * dt * dt;
+  dv_ += R_half * acc * dt;
   dR_ = (dR_ * ExpQ(phi)).normalized();
   dt_s_ += dt;
 }

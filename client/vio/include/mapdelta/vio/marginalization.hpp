@@ -1,0 +1,62 @@
+#pragma once
+// Marginalization by Schur complement (internal; pulls in Ceres).
+// Residual blocks touching the dropped parameters are linearized at the current estimate;
+// the Gauss-Newton system over [dropped | kept] tangent coordinates is reduced to the kept
+// ones: H* = Hkk - Hkd Hdd^-1 Hdk, b* = bk - Hkd Hdd^-1 bd, and factored as H* = J^T J,
+// b* = J^T r so that a prior residual r + J * (x - x0) reproduces it.
+#include <ceres/ceres.h>
+
+#include <Eigen/Core>
+#include <memory>
+#include <set>
+#include <vector>
+
+namespace mapdelta::vio {
+
+class Marginalizer {
+ public:
+  // `cost` becomes owned; `loss` (may be null) is borrowed and must outlive Marginalize().
+  void AddResidualBlock(ceres::CostFunction* cost, const ceres::LossFunction* loss,
+                        std::vector<double*> blocks);
+  // Parameter blocks to eliminate (others touched by the residuals are kept).
+  void Drop(const double* block) { dropped_.insert(block); }
+  // Builds the prior. Returns false if nothing is kept.
+  bool Marginalize();
+
+  // The result, valid after Marginalize().
+  const std::vector<double*>& kept_blocks() const { return kept_; }
+  const std::vector<int>& kept_sizes() const { return kept_sizes_; }  // ambient sizes
+  const std::vector<Eigen::VectorXd>& linearization_points() const { return x0_; }
+  const Eigen::MatrixXd& J() const { return J_; }
+  const Eigen::VectorXd& r() const { return r_; }
+  // The reduced Hessian / gradient (for tests and covariance extraction).
+  const Eigen::MatrixXd& H() const { return H_; }
+  const Eigen::VectorXd& b() const { return b_; }
+
+ private:
+  struct Block {
+    std::unique_ptr<ceres::CostFunction> cost;
+    const ceres::LossFunction* loss = nullptr;
+    std::vector<double*> params;
+  };
+  std::vector<Block> blocks_;
+  std::set<const double*> dropped_;
+  std::vector<double*> kept_;
+  std::vector<int> kept_sizes_;
+  std::vector<Eigen::VectorXd> x0_;
+  Eigen::MatrixXd J_, H_;
+  Eigen::VectorXd r_, b_;
+};
+
+// Prior residual r + J * (x (-) x0) over the kept blocks of a Marginalizer.
+class MarginalizationFactor : public ceres::CostFunction {
+ public:
+  explicit MarginalizationFactor(std::shared_ptr<const Marginalizer> info);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  std::shared_ptr<const Marginalizer> info_;
+};
+
+}  // namespace mapdelta::vio

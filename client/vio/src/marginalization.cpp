@@ -1,0 +1,152 @@
+#include "mapdelta/vio/marginalization.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <map>
+
+#include "mapdelta/vio/factors.hpp"
+
+namespace mapdelta::vio {
+namespace {
+
+// Pseudo-inverse of a symmetric PSD matrix, dropping eigenvalues below `eps`.
+Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& A, double eps = 1e-8) {
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (A + A.transpose()));
+  const Eigen::VectorXd inv =
+      (es.eigenvalues().array() > eps).select(es.eigenvalues().array().inverse(), 0.0);
+  return es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
+}
+
+}  // namespace
+
+void Marginalizer::AddResidualBlock(ceres::CostFunction* cost, const ceres::LossFunction* loss,
+                                    std::vector<double*> params) {
+  blocks_.push_back({std::unique_ptr<ceres::CostFunction>(cost), loss, std::move(params)});
+}
+
+bool Marginalizer::Marginalize() {
+  // 1. Order the tangent coordinates: dropped blocks first, then kept ones.
+  std::map<const double*, int> size_of;
+  for (const auto& b : blocks_) {
+    const auto& sizes = b.cost->parameter_block_sizes();
+    for (size_t k = 0; k < b.params.size(); ++k) size_of[b.params[k]] = sizes[k];
+  }
+  std::map<const double*, int> offset;
+  int m = 0;
+  for (const auto& [block, size] : size_of) {
+    if (dropped_.count(block)) {
+      offset[block] = m;
+      m += TangentSizeOf(size);
+    }
+  }
+  int n = m;
+  kept_.clear();
+  kept_sizes_.clear();
+  x0_.clear();
+  for (const auto& [block, size] : size_of) {
+    if (dropped_.count(block)) continue;
+    offset[block] = n;
+    n += TangentSizeOf(size);
+    kept_.push_back(const_cast<double*>(block));
+    kept_sizes_.push_back(size);
+    x0_.push_back(Eigen::Map<const Eigen::VectorXd>(block, size));
+  }
+  if (kept_.empty()) return false;
+
+  // 2. Accumulate H = J^T J and b = J^T r in tangent coordinates, robustified by the
+  //    loss's first derivative (iteratively reweighted least squares weight).
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+  for (const auto& b : blocks_) {
+    const auto& sizes = b.cost->parameter_block_sizes();
+    const int nr = b.cost->num_residuals();
+    Eigen::VectorXd r(nr);
+    std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Ja(
+        b.params.size());
+    std::vector<double*> jac_ptrs(b.params.size());
+    for (size_t k = 0; k < b.params.size(); ++k) {
+      Ja[k].resize(nr, sizes[k]);
+      jac_ptrs[k] = Ja[k].data();
+    }
+    if (!b.cost->Evaluate(b.params.data(), r.data(), jac_ptrs.data())) continue;
+    double w = 1.0;
+    if (b.loss) {
+      double rho[3];
+      b.loss->Evaluate(r.squaredNorm(), rho);
+      w = std::sqrt(std::max(rho[1], 0.0));
+    }
+    r *= w;
+    std::vector<Eigen::MatrixXd> Jt(b.params.size());
+    for (size_t k = 0; k < b.params.size(); ++k) {
+      Jt[k] = w * ToTangentJacobian(b.params[k], sizes[k], Ja[k]);
+    }
+    for (size_t a = 0; a < b.params.size(); ++a) {
+      const int oa = offset[b.params[a]];
+      g.segment(oa, Jt[a].cols()) += Jt[a].transpose() * r;
+      for (size_t c = 0; c < b.params.size(); ++c) {
+        const int oc = offset[b.params[c]];
+        H.block(oa, oc, Jt[a].cols(), Jt[c].cols()) += Jt[a].transpose() * Jt[c];
+      }
+    }
+  }
+
+  // 3. Schur complement onto the kept coordinates.
+  const int k = n - m;
+  const Eigen::MatrixXd Hdd_inv = PseudoInverse(H.topLeftCorner(m, m));
+  const Eigen::MatrixXd Hkd = H.bottomLeftCorner(k, m);
+  H_ = H.bottomRightCorner(k, k) - Hkd * Hdd_inv * Hkd.transpose();
+  b_ = g.tail(k) - Hkd * Hdd_inv * g.head(m);
+
+  // 4. Factor H* = J^T J with J = S^1/2 V^T, and r = S^-1/2 V^T b*.
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (H_ + H_.transpose()));
+  const Eigen::ArrayXd s = es.eigenvalues().array();
+  const Eigen::ArrayXd keep = (s > 1e-8).cast<double>();
+  const Eigen::VectorXd s_sqrt = (s * keep).sqrt();
+  const Eigen::VectorXd s_inv_sqrt = (keep > 0).select(s.max(1e-300).sqrt().inverse(), 0.0);
+  J_ = s_sqrt.asDiagonal() * es.eigenvectors().transpose();
+  r_ = s_inv_sqrt.asDiagonal() * es.eigenvectors().transpose() * b_;
+  blocks_.clear();
+  return true;
+}
+
+MarginalizationFactor::MarginalizationFactor(std::shared_ptr<const Marginalizer> info)
+    : info_(std::move(info)) {
+  for (int size : info_->kept_sizes()) mutable_parameter_block_sizes()->push_back(size);
+  set_num_residuals(static_cast<int>(info_->r().size()));
+}
+
+bool MarginalizationFactor::Evaluate(double const* const* parameters, double* residuals,
+                                     double** jacobians) const {
+  const auto& sizes = info_->kept_sizes();
+  const int n = static_cast<int>(info_->r().size());
+  Eigen::VectorXd dx(n);
+  std::vector<int> offsets;
+  int o = 0;
+  for (size_t k = 0; k < sizes.size(); ++k) {
+    offsets.push_back(o);
+    const int t = TangentSizeOf(sizes[k]);
+    dx.segment(o, t) = TangentMinus(parameters[k], info_->linearization_points()[k].data(), sizes[k]);
+    o += t;
+  }
+  Eigen::Map<Eigen::VectorXd>(residuals, n) = info_->r() + info_->J() * dx;
+  if (!jacobians) return true;
+  for (size_t k = 0; k < sizes.size(); ++k) {
+    if (!jacobians[k]) continue;
+    const int t = TangentSizeOf(sizes[k]);
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Jk(
+        jacobians[k], n, sizes[k]);
+    const Eigen::MatrixXd Jt = info_->J().middleCols(offsets[k], t);
+    if (sizes[k] != 7) {
+      Jk = Jt;
+      continue;
+    }
+    // d(tangent minus)/d(ambient): position is identity; rotation Log(q0^-1 q) has tangent
+    // Jacobian Jr^-1(dtheta), mapped to ambient by the pseudo-inverse of the Plus Jacobian.
+    Eigen::Matrix<double, 6, 7, Eigen::RowMajor> M;
+    PoseManifold().MinusJacobian(parameters[k], M.data());
+    M.bottomRows<3>() = RightJacobianInvSO3(dx.segment<3>(offsets[k] + 3)) * M.bottomRows<3>();
+    Jk = Jt * M;
+  }
+  return true;
+}
+
+}  // namespace mapdelta::vio

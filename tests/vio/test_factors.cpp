@@ -1,0 +1,236 @@
+// Every Ceres factor's Jacobian against central differences in the tangent space
+// (pose: p + dp, q * Exp(dtheta)), and marginalization against a full solve.
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <random>
+
+#include "mapdelta/vio/factors.hpp"
+#include "mapdelta/vio/marginalization.hpp"
+
+using namespace mapdelta;
+using namespace mapdelta::vio;
+
+namespace {
+
+using Blocks = std::vector<std::vector<double>>;
+
+std::vector<double> PlusTangent(const std::vector<double>& x, int k, double h) {
+  std::vector<double> out = x;
+  if (x.size() == 7) {
+    double delta[6] = {0, 0, 0, 0, 0, 0};
+    delta[k] = h;
+    PoseManifold().Plus(x.data(), delta, out.data());
+  } else {
+    out[k] += h;
+  }
+  return out;
+}
+
+// Max abs difference between analytic and numeric tangent Jacobians.
+double JacobianError(const ceres::CostFunction& cost, Blocks blocks) {
+  const int nr = cost.num_residuals();
+  const auto& sizes = cost.parameter_block_sizes();
+  std::vector<const double*> ptrs;
+  for (auto& b : blocks) ptrs.push_back(b.data());
+  std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(blocks.size());
+  std::vector<double*> jptrs;
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    J[k].resize(nr, sizes[k]);
+    jptrs.push_back(J[k].data());
+  }
+  Eigen::VectorXd r(nr);
+  EXPECT_TRUE(cost.Evaluate(ptrs.data(), r.data(), jptrs.data()));
+  double worst = 0;
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    const Eigen::MatrixXd Jt = ToTangentJacobian(blocks[k].data(), sizes[k], J[k]);
+    for (int d = 0; d < Jt.cols(); ++d) {
+      const double h = 1e-6;
+      Blocks plus = blocks, minus = blocks;
+      plus[k] = PlusTangent(blocks[k], d, h);
+      minus[k] = PlusTangent(blocks[k], d, -h);
+      std::vector<const double*> pp, pm;
+      for (size_t q = 0; q < blocks.size(); ++q) {
+        pp.push_back(plus[q].data());
+        pm.push_back(minus[q].data());
+      }
+      Eigen::VectorXd rp(nr), rm(nr);
+      cost.Evaluate(pp.data(), rp.data(), nullptr);
+      cost.Evaluate(pm.data(), rm.data(), nullptr);
+      const Eigen::VectorXd numeric = (rp - rm) / (2 * h);
+      const double scale = std::max(1.0, numeric.cwiseAbs().maxCoeff());
+      worst = std::max(worst, (numeric - Jt.col(d)).cwiseAbs().maxCoeff() / scale);
+    }
+  }
+  return worst;
+}
+
+std::vector<double> RandomPose(std::mt19937& rng, double spread) {
+  std::normal_distribution<double> n(0, 1);
+  SE3 T = MakeSE3(ExpQ(Eigen::Vector3d(n(rng), n(rng), n(rng)) * 0.5),
+                  Eigen::Vector3d(n(rng), n(rng), n(rng)) * spread);
+  std::vector<double> p(7);
+  PoseToArray(T, p.data());
+  return p;
+}
+
+std::vector<double> RandomVector(std::mt19937& rng, int size, double scale) {
+  std::normal_distribution<double> n(0, scale);
+  std::vector<double> v(size);
+  for (double& x : v) x = n(rng);
+  return v;
+}
+
+ImuPreintegration SomePreintegration() {
+  ImuNoiseDensities noise;
+  noise.gyroscope_noise_density = 4e-4;
+  noise.accelerometer_noise_density = 3e-3;
+  noise.gyroscope_random_walk = 4e-5;
+  noise.accelerometer_random_walk = 3e-4;
+  ImuPreintegration pre(noise, Eigen::Vector3d(0.01, 0, -0.01), Eigen::Vector3d(0.05, 0.02, 0));
+  for (int k = 0; k <= 40; ++k) {
+    ImuSample s;
+    s.t_ns = k * 5000000LL;
+    s.gyro = Eigen::Vector3d(0.2, -0.3 + 0.01 * k, 0.1);
+    s.accel = Eigen::Vector3d(0.5, 0.1 * std::sin(k), 9.8);
+    pre.Add(s);
+  }
+  return pre;
+}
+
+CameraExtrinsics Cam(const Eigen::Vector3d& rot, const Eigen::Vector3d& t) {
+  CameraExtrinsics c;
+  c.q_body_cam = ExpQ(rot);
+  c.t_body_cam = t;
+  return c;
+}
+
+}  // namespace
+
+TEST(Factors, ImuFactorJacobianMatchesNumeric) {
+  std::mt19937 rng(1);
+  const auto pre = SomePreintegration();
+  std::unique_ptr<ceres::CostFunction> cost(ImuFactor::Create(pre, Eigen::Vector3d(0, 0, -9.81)));
+  for (int trial = 0; trial < 3; ++trial) {
+    Blocks blocks = {RandomPose(rng, 1.0), RandomVector(rng, 9, 0.1), RandomPose(rng, 1.0),
+                     RandomVector(rng, 9, 0.1)};
+    EXPECT_LT(JacobianError(*cost, blocks), 1e-6);
+  }
+}
+
+TEST(Factors, ReprojectionAndStereoJacobiansMatchNumeric) {
+  std::mt19937 rng(2);
+  const auto cam0 = Cam({-1.2, 0.0, -1.2}, {0.1, 0.05, 0.0});
+  const auto cam1 = Cam({-1.2, 0.0, -1.2}, {0.1, -0.95, 0.0});
+  std::unique_ptr<ceres::CostFunction> reproj(ReprojectionFactor::Create(
+      Eigen::Vector2d(0.1, -0.2), Eigen::Vector2d(0.05, 0.1), cam0, cam1, 400.0));
+  std::unique_ptr<ceres::CostFunction> stereo(StereoFactor::Create(
+      Eigen::Vector2d(0.1, -0.2), Eigen::Vector2d(-0.1, -0.2), cam0, cam1, 400.0));
+  for (int trial = 0; trial < 3; ++trial) {
+    Blocks blocks = {RandomPose(rng, 0.3), RandomPose(rng, 0.3), {0.2}};
+    EXPECT_LT(JacobianError(*reproj, blocks), 1e-5);
+    EXPECT_LT(JacobianError(*stereo, {{0.2}}), 1e-6);
+  }
+}
+
+TEST(Factors, MarginalizationFactorJacobianMatchesNumeric) {
+  std::mt19937 rng(3);
+  auto marg = std::make_shared<Marginalizer>();
+  std::vector<double> pose_a = RandomPose(rng, 1), sb_a = RandomVector(rng, 9, 0.1);
+  std::vector<double> pose_b = RandomPose(rng, 1), sb_b = RandomVector(rng, 9, 0.1);
+  marg->AddResidualBlock(ImuFactor::Create(SomePreintegration(), Eigen::Vector3d(0, 0, -9.81)),
+                         nullptr, {pose_a.data(), sb_a.data(), pose_b.data(), sb_b.data()});
+  marg->Drop(pose_a.data());
+  marg->Drop(sb_a.data());
+  ASSERT_TRUE(marg->Marginalize());
+  MarginalizationFactor prior(marg);
+  // Evaluate away from the linearization point so the rotation term is non-trivial.
+  Blocks blocks;
+  for (size_t k = 0; k < marg->kept_blocks().size(); ++k) {
+    std::vector<double> x(marg->kept_blocks()[k], marg->kept_blocks()[k] + marg->kept_sizes()[k]);
+    for (int d = 0; d < TangentSizeOf(x.size()); ++d) x = PlusTangent(x, d, 0.05 * (d + 1));
+    blocks.push_back(x);
+  }
+  EXPECT_LT(JacobianError(prior, blocks), 1e-6);
+}
+
+namespace {
+
+// Linear residual A * x + B * y - c (weighted), 3-vectors.
+struct LinearPair {
+  Eigen::Matrix3d A, B;
+  Eigen::Vector3d c;
+  template <typename T>
+  bool operator()(const T* x, const T* y, T* r) const {
+    Eigen::Map<const Eigen::Matrix<T, 3, 1>> X(x), Y(y);
+    Eigen::Map<Eigen::Matrix<T, 3, 1>> R(r);
+    R = A.cast<T>() * X + B.cast<T>() * Y - c.cast<T>();
+    return true;
+  }
+};
+
+ceres::CostFunction* MakePair(std::mt19937& rng) {
+  std::normal_distribution<double> n(0, 1);
+  auto* f = new LinearPair;
+  f->A = Eigen::Matrix3d::NullaryExpr([&]() { return n(rng); }) + 3 * Eigen::Matrix3d::Identity();
+  f->B = Eigen::Matrix3d::NullaryExpr([&]() { return n(rng); });
+  f->c = Eigen::Vector3d::NullaryExpr([&]() { return n(rng); });
+  return new ceres::AutoDiffCostFunction<LinearPair, 3, 3, 3>(f);
+}
+
+}  // namespace
+
+// A chain x0 - x1 - x2 - x3 of linear factors: eliminating x0 by Schur complement and solving
+// the rest with the prior must reproduce the full solve exactly (the problem is linear, so
+// the linearization point does not matter).
+TEST(Marginalization, MatchesFullSolveOnLinearChain) {
+  std::mt19937 rng(4);
+  std::vector<ceres::CostFunction*> costs;
+  for (int k = 0; k < 5; ++k) costs.push_back(MakePair(rng));
+  // pairs: (0,1) (1,2) (2,3) (0,2) (3,3-anchor via pair with x1)
+  const int pairs[5][2] = {{0, 1}, {1, 2}, {2, 3}, {0, 2}, {3, 1}};
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.function_tolerance = options.gradient_tolerance = options.parameter_tolerance = 1e-16;
+  ceres::Solver::Summary summary;
+
+  std::vector<std::vector<double>> full(4, std::vector<double>(3, 0.0));
+  ceres::Problem::Options keep;
+  keep.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  {
+    ceres::Problem problem(keep);
+    for (int k = 0; k < 5; ++k) {
+      problem.AddResidualBlock(costs[k], nullptr, full[pairs[k][0]].data(), full[pairs[k][1]].data());
+    }
+    ceres::Solve(options, &problem, &summary);
+  }
+
+  std::vector<std::vector<double>> x(4, std::vector<double>(3, 0.5));  // arbitrary point
+  auto marg = std::make_shared<Marginalizer>();
+  std::mt19937 rng2(4);  // same factors again, owned by the marginalizer
+  std::vector<ceres::CostFunction*> copies;
+  for (int k = 0; k < 5; ++k) copies.push_back(MakePair(rng2));
+  for (int k = 0; k < 5; ++k) {
+    if (pairs[k][0] == 0 || pairs[k][1] == 0) {
+      marg->AddResidualBlock(copies[k], nullptr, {x[pairs[k][0]].data(), x[pairs[k][1]].data()});
+    } else {
+      delete copies[k];
+    }
+  }
+  marg->Drop(x[0].data());
+  ASSERT_TRUE(marg->Marginalize());
+  ceres::Problem reduced(keep);
+  for (int k = 0; k < 5; ++k) {
+    if (pairs[k][0] != 0 && pairs[k][1] != 0) {
+      reduced.AddResidualBlock(costs[k], nullptr, x[pairs[k][0]].data(), x[pairs[k][1]].data());
+    }
+  }
+  auto* prior = new MarginalizationFactor(marg);
+  reduced.AddResidualBlock(prior, nullptr, marg->kept_blocks());
+  ceres::Solve(options, &reduced, &summary);
+  delete prior;
+  for (int b = 1; b < 4; ++b) {
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(x[b][d], full[b][d], 1e-8) << b << "," << d;
+  }
+  for (auto* c : costs) delete c;
+}
