@@ -88,6 +88,10 @@ export class Api {
     return this.request(`/v1/prior/tiles/${encodeURIComponent(tile)}?${q}`, { accept: 'bytes' });
   }
 
+  observedTile(tile) {
+    return this.request(`/v1/observed/tiles/${encodeURIComponent(tile)}.bt`, { accept: 'bytes' });
+  }
+
   startRefresh(tile) {
     return this.request('/v1/admin/jobs', { method: 'POST', body: { type: 'refresh', tiles: [tile] } });
   }

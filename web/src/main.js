@@ -4,6 +4,7 @@ import './style.css';
 import { Api } from './api.js';
 import { parseCloud } from './cloudparse.js';
 import { legendHtml } from './colors.js';
+import { observedFootprint } from './octomap.js';
 import { renderEvidence, summarizeReport } from './evidence.js';
 import { runRefresh } from './jobs.js';
 import { TileList } from './tilelist.js';
@@ -111,6 +112,7 @@ async function pickTile(tile) {
     view.setLayer('new', added);
     view.setLayer('removed', removed);
     await loadPrior(tile, state.version ?? state.priorVersion);
+    if ($('show-observed').checked) await loadObserved(tile);
     view.frame();
     $('refresh-tile').disabled = !state.isAdmin;
     document.body.dataset.tileLoaded = tile;
@@ -130,6 +132,23 @@ async function loadPrior(tile, version) {
     + `new: ${c.new ?? 0} pts   removed: ${c.removed ?? 0} pts`);
   view.render();
 }
+
+// The observed octree is fetched only when asked for: it is the largest download of a tile.
+async function loadObserved(tile) {
+  try {
+    const [ix, iy] = tile.split('_').map(Number);
+    const buf = await api.observedTile(tile);
+    if (state.tile !== tile) return;
+    view.setFootprint(observedFootprint(buf, [ix * state.tileSize, iy * state.tileSize], state.tileSize));
+  } catch (e) {
+    if (e.status === 404) { view.setFootprint(null); return; }
+    status(`observed area of ${tile}: ${e.message}`, true);
+  }
+}
+$('show-observed').addEventListener('change', (e) => {
+  if (!state.tile) return;
+  if (e.target.checked) loadObserved(state.tile); else view.setFootprint(null);
+});
 
 for (const k of ['prior', 'new', 'removed']) {
   $(`show-${k}`).addEventListener('change', (e) => view.setVisible(k, e.target.checked));

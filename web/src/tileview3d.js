@@ -36,10 +36,11 @@ export class TileView3D {
   // Tile centre (map metres) and edge length; the grid and camera frame this square.
   setTile(center, size) {
     this.origin.set(center[0], center[1], 0);
+    this.size = size;
     for (const name of Object.keys(this.layers)) this.setLayer(name, null);
+    this.setFootprint(null);
     const grid = this.scene.children.find((c) => c.type === 'GridHelper');
     grid.scale.setScalar(size / 50);
-    this.size = size;
   }
 
   // xyz: Float32Array in map coordinates, or null to drop the layer.
@@ -65,6 +66,25 @@ export class TileView3D {
     pts.name = name;
     this.layers[name] = pts;
     this.scene.add(pts);
+  }
+
+  // Observed area as a translucent cyan ground overlay (mask row 0 = tile's min y), or null.
+  setFootprint(fp) {
+    if (this.footprint) {
+      this.scene.remove(this.footprint);
+      this.footprint.geometry.dispose(); this.footprint.material.map.dispose(); this.footprint.material.dispose();
+      this.footprint = null;
+    }
+    if (!fp) { this.render(); return; }
+    const rgba = new Uint8Array(fp.cells * fp.cells * 4);
+    for (let k = 0; k < fp.mask.length; k++) rgba.set(fp.mask[k] ? [0, 188, 212, 110] : [0, 0, 0, 0], k * 4);
+    const tex = new THREE.DataTexture(rgba, fp.cells, fp.cells, THREE.RGBAFormat);
+    tex.needsUpdate = true;
+    const mat = new THREE.MeshBasicMaterial({ map: tex, transparent: true, depthWrite: false, side: THREE.DoubleSide });
+    this.footprint = new THREE.Mesh(new THREE.PlaneGeometry(this.size, this.size), mat);
+    this.footprint.position.z = -0.05;   // just under the ground points
+    this.scene.add(this.footprint);
+    this.render();
   }
 
   setVisible(name, visible) {
