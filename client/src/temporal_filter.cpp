@@ -20,12 +20,8 @@ DepthImage TemporalFilter(const std::vector<DepthFrame>& frames, size_t center,
   const size_t n = di.depth_m.size();
   std::vector<int> successes(n, 0);
   std::vector<float> sums(n, 0.f);
-  // Per neighbour: the projected depth closest to d_i at each pixel, so several source pixels
-  // landing on one target pixel count as one success of that neighbour.
-  std::vector<float> best(n);
   int neighbours = 0;
-  const SE3 T_cami_world = frames[center].T_world_cam.inverse();
-
+  const SE3 T_world_cami = frames[center].T_world_cam;
   for (size_t j = 0; j < frames.size(); ++j) {
     if (j == center || frames[j].depth == nullptr) continue;
     const DepthImage& dj = *frames[j].depth;
@@ -33,37 +29,28 @@ DepthImage TemporalFilter(const std::vector<DepthFrame>& frames, size_t center,
       throw Error(ErrorCode::kInvalidArgument, "temporal filter: neighbour depth size differs");
     }
     ++neighbours;
-    std::fill(best.begin(), best.end(), std::numeric_limits<float>::quiet_NaN());
-    const SE3 T_cami_camj = T_cami_world * frames[j].T_world_cam;
-    const Eigen::Matrix3d R = T_cami_camj.linear();
-    const Eigen::Vector3d t = T_cami_camj.translation();
-    for (int v = 0; v < dj.height; ++v) {
-      for (int u = 0; u < dj.width; ++u) {
-        const float z = dj.at(u, v);
-        if (!(z > 0.f)) continue;
-        // 1. back-project pixel of j, 2. move into i, 3. project and round to a pixel.
-        const Eigen::Vector3d p_i = R * camera.BackProject(u, v, z) + t;
-        if (p_i.z() <= 1e-6) continue;
-        const double ui = camera.fx * p_i.x() / p_i.z() + camera.cx;
-        const double vi = camera.fy * p_i.y() / p_i.z() + camera.cy;
-        const int iu = static_cast<int>(std::lround(ui));
-        const int iv = static_cast<int>(std::lround(vi));
-        if (iu < 0 || iv < 0 || iu >= di.width || iv >= di.height) continue;
-        const size_t k = static_cast<size_t>(iv) * di.width + iu;
+    const SE3 T_camj_cami = frames[j].T_world_cam.inverse() * T_world_cami;
+    const SE3 T_cami_camj = T_camj_cami.inverse();
+    for (int v = 0; v < di.height; ++v) {
+      for (int u = 0; u < di.width; ++u) {
+        const size_t k = static_cast<size_t>(v) * di.width + u;
         const float d_here = di.depth_m[k];
         if (!(d_here > 0.f)) continue;
-        const float projected = static_cast<float>(p_i.z());
-        // 4. success test against the current frame's depth at the hit pixel.
+        // 1. Find the pixel of j that sees this pixel's point (nearest pixel).
+        const Eigen::Vector3d p_j = T_camj_cami * camera.BackProject(u, v, d_here);
+        if (p_j.z() <= 1e-6) continue;
+        const long uj = std::lround(camera.fx * p_j.x() / p_j.z() + camera.cx);
+        const long vj = std::lround(camera.fy * p_j.y() / p_j.z() + camera.cy);
+        if (uj < 0 || vj < 0 || uj >= dj.width || vj >= dj.height) continue;
+        const float zj = dj.at(static_cast<int>(uj), static_cast<int>(vj));
+        if (!(zj > 0.f)) continue;
+        // 2. Re-project j's depth there into i: the projected depth d_j^i.
+        const double projected =
+            (T_cami_camj * camera.BackProject(static_cast<double>(uj), static_cast<double>(vj), zj)).z();
+        // 3. Success test against the current frame's depth.
         if (std::abs(projected - d_here) >= config.delta_d_m) continue;
-        if (std::isnan(best[k]) || std::abs(projected - d_here) < std::abs(best[k] - d_here)) {
-          best[k] = projected;
-        }
-      }
-    }
-    for (size_t k = 0; k < n; ++k) {
-      if (!std::isnan(best[k])) {
         ++successes[k];
-        sums[k] += best[k];
+        sums[k] += static_cast<float>(projected);
       }
     }
   }

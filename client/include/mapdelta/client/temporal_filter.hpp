@@ -1,9 +1,13 @@
 #pragma once
-// Stage 2: the paper's temporal depth filter (section III-A-2). For keyframe i, every depth
-// pixel of the neighbours j = i-w..i+w (j != i) is re-projected into i; a projection succeeds
-// if its depth differs from d_i at the hit pixel by less than delta_d. Pixels with at least
-// alpha successes (counted once per neighbour) keep the average of d_i and the successful
-// projected depths; all others are dropped.
+// Stage 2: the paper's temporal depth filter (section III-A-2). For keyframe i and each
+// neighbour j = i-w..i+w (j != i), the depth of j at the pixel corresponding to i's pixel is
+// re-projected into i (the projected depth d_j^i); it succeeds if it differs from d_i by less
+// than delta_d. Pixels with at least alpha successes keep the average of d_i and the
+// successful projected depths; all others are dropped.
+// Why gather (look up j from i) rather than scatter (splat every pixel of j into i): with a
+// forward-moving camera, half of the neighbours are farther away, and their splats leave
+// holes in i that would count as failures; gather gives each pixel of i one fair test per
+// neighbour.
 #include <vector>
 
 #include "mapdelta/client/config.hpp"

@@ -1,0 +1,90 @@
+#pragma once
+// Stage 5: pose fusion (paper section III-A-4, after VINS-Fusion's global fusion). Variables:
+// T_map_body of every keyframe. Factors:
+//   - odometry: relative motion between consecutive keyframes from the VIO, weighted by its
+//     covariance when given, else by FusionConfig's per-step sigmas;
+//   - global position factor  p_k^p - p_k, from each accepted registration;
+//   - relative rotation factor (q_a^p)^-1 q_k^p (-) q_a^-1 q_k, from the first registered
+//     keyframe a (the paper's "initial frame") to keyframe k;
+//   - a prior on the first keyframe (the start-up pose, refined by registration).
+// Registration factors use the registration covariance and a Huber loss. All covariances are
+// 6x6 [rotation, translation], right perturbation T (+) d = (R Exp(w), t + R v), as GICP's.
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "mapdelta/client/config.hpp"
+#include "mapdelta/common/pose.hpp"
+
+namespace mapdelta::client {
+
+using Matrix6 = Eigen::Matrix<double, 6, 6>;
+
+struct FusionSummary {
+  int iterations = 0;
+  double initial_cost = 0;
+  double final_cost = 0;
+  double seconds = 0;
+  bool usable = false;  // Ceres reported a usable solution
+};
+
+class PoseFusion {
+ public:
+  explicit PoseFusion(const FusionConfig& config);
+
+  // The start-up pose of the first keyframe in the map frame and its uncertainty. Must be
+  // called before the first AddKeyframe.
+  void SetInitialPose(const SE3& T_map_body, const Matrix6& covariance);
+  // Appends keyframe k = size(); T_odom_body is the VIO pose in its own frame; rel_covariance
+  // is the covariance of the motion from the previous keyframe (right perturbation), if known.
+  // The new keyframe's fused pose starts as the previous fused pose times the odometry motion.
+  size_t AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
+                     const std::optional<Matrix6>& rel_covariance = std::nullopt);
+  // An accepted registration of keyframe k: its measured T_map_body and covariance.
+  // Throws Error(kInvalidArgument) on a bad index, pose or covariance.
+  void AddRegistration(size_t k, const SE3& T_map_body, const Matrix6& covariance);
+
+  // Solves with warm start from the current estimate (incremental runs use few iterations,
+  // the final pass many).
+  FusionSummary Optimize(int max_iterations);
+
+  size_t size() const { return keyframes_.size(); }
+  size_t num_registrations() const { return registrations_.size(); }
+  int64_t t_ns(size_t k) const { return keyframes_[k].t_ns; }
+  SE3 FusedPose(size_t k) const;     // T_map_body
+  SE3 OdometryPose(size_t k) const;  // T_odom_body as given
+  // Odometry mapped into the map frame through the initial pose only (what the VIO alone gives).
+  SE3 OdometryInMap(size_t k) const;
+  // Index of the newest keyframe that has a registration after it (or -1).
+  long LastRegisteredKeyframe() const { return last_registered_; }
+
+ private:
+  struct KeyframeState {
+    int64_t t_ns = 0;
+    SE3 T_odom_body = SE3::Identity();
+    std::optional<Matrix6> rel_covariance;
+    double q[4] = {0, 0, 0, 1};  // T_map_body rotation, Eigen order x y z w
+    double p[3] = {0, 0, 0};
+  };
+  struct Registration {
+    size_t k = 0;
+    SE3 T_map_body = SE3::Identity();
+    Matrix6 covariance = Matrix6::Identity();
+  };
+
+  void SetState(KeyframeState* state, const SE3& T) const;
+
+  FusionConfig config_;
+  bool has_initial_ = false;
+  SE3 T_map_body0_ = SE3::Identity();
+  Matrix6 initial_covariance_ = Matrix6::Identity();
+  std::vector<KeyframeState> keyframes_;
+  std::vector<Registration> registrations_;
+  long last_registered_ = -1;
+};
+
+// Square-root information U (U^T U = covariance^-1) for whitening residuals; throws
+// Error(kInvalidArgument) if the covariance is not symmetric positive definite and finite.
+Matrix6 SqrtInformation(const Matrix6& covariance);
+
+}  // namespace mapdelta::client

@@ -1,0 +1,262 @@
+#include "mapdelta/client/pose_fusion.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <Eigen/Cholesky>
+#include <chrono>
+
+#include "mapdelta/common/error.hpp"
+
+namespace mapdelta::client {
+namespace {
+
+template <typename T>
+using Vec3 = Eigen::Matrix<T, 3, 1>;
+
+// Rotation vector of a unit quaternion (Log of SO(3)), differentiable through Ceres jets.
+template <typename T>
+Vec3<T> LogQuat(const Eigen::Quaternion<T>& q) {
+  const T wxyz[4] = {q.w(), q.x(), q.y(), q.z()};
+  Vec3<T> aa;
+  ceres::QuaternionToAngleAxis(wxyz, aa.data());
+  return aa;
+}
+
+// Odometry between keyframes i and j: residual [Log(dR_meas^T R_i^T R_j), dR_meas^T (R_i^T
+// (p_j - p_i) - dt_meas)], the right-perturbation tangent of the predicted relative motion
+// around the measured one, whitened by U.
+struct RelativePoseCost {
+  Eigen::Quaterniond dq;
+  Eigen::Vector3d dt;
+  Matrix6 U;
+  template <typename T>
+  bool operator()(const T* qi_, const T* pi_, const T* qj_, const T* pj_, T* out) const {
+    Eigen::Map<const Eigen::Quaternion<T>> qi(qi_), qj(qj_);
+    Eigen::Map<const Vec3<T>> pi(pi_), pj(pj_);
+    const Eigen::Quaternion<T> dq_inv = dq.conjugate().cast<T>();
+    Eigen::Matrix<T, 6, 1> r;
+    r.template head<3>() = LogQuat<T>(dq_inv * (qi.conjugate() * qj));
+    r.template tail<3>() = dq_inv * (qi.conjugate() * (pj - pi) - dt.cast<T>());
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> res(out);
+    res = U.cast<T>() * r;
+    return true;
+  }
+};
+
+// A full-pose prior (the start-up pose), same tangent as above.
+struct PosePriorCost {
+  Eigen::Quaterniond q_meas;
+  Eigen::Vector3d p_meas;
+  Matrix6 U;
+  template <typename T>
+  bool operator()(const T* q_, const T* p_, T* out) const {
+    Eigen::Map<const Eigen::Quaternion<T>> q(q_);
+    Eigen::Map<const Vec3<T>> p(p_);
+    const Eigen::Quaternion<T> q_inv = q_meas.conjugate().cast<T>();
+    Eigen::Matrix<T, 6, 1> r;
+    r.template head<3>() = LogQuat<T>(q_inv * q);
+    r.template tail<3>() = q_inv * (p - p_meas.cast<T>());
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> res(out);
+    res = U.cast<T>() * r;
+    return true;
+  }
+};
+
+// The paper's global position factor: p_k^p - p_k (whitened).
+struct GlobalPositionCost {
+  Eigen::Vector3d p_meas;
+  Eigen::Matrix3d U;
+  template <typename T>
+  bool operator()(const T* p_, T* out) const {
+    Eigen::Map<const Vec3<T>> p(p_);
+    Eigen::Map<Vec3<T>> res(out);
+    res = U.cast<T>() * (p - p_meas.cast<T>());
+    return true;
+  }
+};
+
+// The paper's relative rotation factor: (q_a^p)^-1 q_k^p (-) q_a^-1 q_k (whitened).
+struct RelativeRotationCost {
+  Eigen::Quaterniond z;  // (q_a^p)^-1 q_k^p
+  Eigen::Matrix3d U;
+  template <typename T>
+  bool operator()(const T* qa_, const T* qk_, T* out) const {
+    Eigen::Map<const Eigen::Quaternion<T>> qa(qa_), qk(qk_);
+    Eigen::Map<Vec3<T>> res(out);
+    res = U.cast<T>() * LogQuat<T>(z.conjugate().cast<T>() * (qa.conjugate() * qk));
+    return true;
+  }
+};
+
+Eigen::Matrix3d SqrtInformation3(const Eigen::Matrix3d& covariance) {
+  const Eigen::LLT<Eigen::Matrix3d> llt(covariance.inverse());
+  if (llt.info() != Eigen::Success) {
+    throw Error(ErrorCode::kInvalidArgument, "fusion: 3x3 covariance is not positive definite");
+  }
+  return llt.matrixU();
+}
+
+Matrix6 DiagonalCovariance(double sigma_rot, double sigma_trans) {
+  Matrix6 c = Matrix6::Zero();
+  c.diagonal() << Eigen::Vector3d::Constant(sigma_rot * sigma_rot),
+      Eigen::Vector3d::Constant(sigma_trans * sigma_trans);
+  return c;
+}
+
+void CheckCovariance(const Matrix6& c, const char* what) {
+  if (!c.allFinite() || !c.isApprox(c.transpose(), 1e-6)) {
+    throw Error(ErrorCode::kInvalidArgument, std::string("fusion: ") + what +
+                                                 " covariance must be finite and symmetric");
+  }
+}
+
+}  // namespace
+
+Matrix6 SqrtInformation(const Matrix6& covariance) {
+  CheckCovariance(covariance, "a");
+  const Eigen::LLT<Matrix6> llt(covariance.inverse());
+  if (llt.info() != Eigen::Success || !covariance.inverse().allFinite()) {
+    throw Error(ErrorCode::kInvalidArgument, "fusion: covariance is not positive definite");
+  }
+  return llt.matrixU();
+}
+
+PoseFusion::PoseFusion(const FusionConfig& config) : config_(config) {}
+
+void PoseFusion::SetState(KeyframeState* s, const SE3& T) const {
+  const Eigen::Quaterniond q(T.linear());
+  s->q[0] = q.x();
+  s->q[1] = q.y();
+  s->q[2] = q.z();
+  s->q[3] = q.w();
+  for (int i = 0; i < 3; ++i) s->p[i] = T.translation()[i];
+}
+
+void PoseFusion::SetInitialPose(const SE3& T_map_body, const Matrix6& covariance) {
+  if (!keyframes_.empty()) throw Error(ErrorCode::kConflict, "fusion: initial pose after keyframes");
+  if (!IsValidPose(T_map_body, 1e-6)) throw Error(ErrorCode::kInvalidArgument, "fusion: bad initial pose");
+  SqrtInformation(covariance);  // validates
+  T_map_body0_ = T_map_body;
+  initial_covariance_ = covariance;
+  has_initial_ = true;
+}
+
+size_t PoseFusion::AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
+                               const std::optional<Matrix6>& rel_covariance) {
+  if (!IsValidPose(T_odom_body, 1e-6)) {
+    throw Error(ErrorCode::kInvalidArgument, "fusion: odometry pose is not a valid rigid transform");
+  }
+  if (rel_covariance) SqrtInformation(*rel_covariance);
+  KeyframeState s;
+  s.t_ns = t_ns;
+  s.T_odom_body = T_odom_body;
+  s.rel_covariance = rel_covariance;
+  if (keyframes_.empty()) {
+    if (!has_initial_) {
+      throw Error(ErrorCode::kConflict, "fusion: SetInitialPose must come before the first keyframe");
+    }
+    SetState(&s, T_map_body0_);
+  } else {
+    const auto& prev = keyframes_.back();
+    SetState(&s, FusedPose(keyframes_.size() - 1) * (prev.T_odom_body.inverse() * T_odom_body));
+  }
+  keyframes_.push_back(s);
+  return keyframes_.size() - 1;
+}
+
+void PoseFusion::AddRegistration(size_t k, const SE3& T_map_body, const Matrix6& covariance) {
+  if (k >= keyframes_.size()) throw Error(ErrorCode::kInvalidArgument, "fusion: registration of unknown keyframe");
+  if (!IsValidPose(T_map_body, 1e-6)) throw Error(ErrorCode::kInvalidArgument, "fusion: bad registration pose");
+  SqrtInformation(covariance);
+  registrations_.push_back({k, T_map_body, covariance});
+  last_registered_ = std::max(last_registered_, static_cast<long>(k));
+}
+
+SE3 PoseFusion::FusedPose(size_t k) const {
+  const auto& s = keyframes_.at(k);
+  return MakeSE3(Eigen::Quaterniond(s.q[3], s.q[0], s.q[1], s.q[2]).normalized(),
+                 Eigen::Vector3d(s.p[0], s.p[1], s.p[2]));
+}
+
+SE3 PoseFusion::OdometryPose(size_t k) const { return keyframes_.at(k).T_odom_body; }
+
+SE3 PoseFusion::OdometryInMap(size_t k) const {
+  return T_map_body0_ * keyframes_.at(0).T_odom_body.inverse() * keyframes_.at(k).T_odom_body;
+}
+
+FusionSummary PoseFusion::Optimize(int max_iterations) {
+  FusionSummary summary;
+  if (keyframes_.empty()) return summary;
+  const auto start = std::chrono::steady_clock::now();
+  ceres::Problem problem;
+  for (auto& s : keyframes_) {
+    problem.AddParameterBlock(s.q, 4, new ceres::EigenQuaternionManifold);
+    problem.AddParameterBlock(s.p, 3);
+  }
+  // 1. Start-up prior on keyframe 0.
+  {
+    auto* cost = new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost{
+        Eigen::Quaterniond(T_map_body0_.linear()), T_map_body0_.translation(),
+        SqrtInformation(initial_covariance_)});
+    problem.AddResidualBlock(cost, nullptr, keyframes_[0].q, keyframes_[0].p);
+  }
+  // 2. Odometry between consecutive keyframes.
+  for (size_t k = 1; k < keyframes_.size(); ++k) {
+    auto& a = keyframes_[k - 1];
+    auto& b = keyframes_[k];
+    const SE3 dT = a.T_odom_body.inverse() * b.T_odom_body;
+    const double step = dT.translation().norm();
+    const Matrix6 cov = b.rel_covariance
+                            ? *b.rel_covariance
+                            : DiagonalCovariance(config_.odom_sigma_rot_rad,
+                                                 config_.odom_sigma_trans_m +
+                                                     config_.odom_sigma_trans_per_m * step);
+    auto* cost = new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(
+        new RelativePoseCost{Eigen::Quaterniond(dT.linear()), dT.translation(), SqrtInformation(cov)});
+    problem.AddResidualBlock(cost, nullptr, a.q, a.p, b.q, b.p);
+  }
+  // 3. Registration factors (robust): global position, and rotation relative to the first
+  //    registered keyframe.
+  const Registration* anchor = registrations_.empty() ? nullptr : &registrations_.front();
+  for (const auto& reg : registrations_) {
+    auto& s = keyframes_[reg.k];
+    const Eigen::Matrix3d R = reg.T_map_body.linear();
+    // Right-perturbed translation v maps to the map frame as R v.
+    const Eigen::Matrix3d cov_p = R * reg.covariance.bottomRightCorner<3, 3>() * R.transpose();
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<GlobalPositionCost, 3, 3>(
+            new GlobalPositionCost{reg.T_map_body.translation(), SqrtInformation3(cov_p)}),
+        new ceres::HuberLoss(config_.huber_delta), s.p);
+    if (&reg == anchor || reg.k == anchor->k) continue;
+    const Eigen::Matrix3d R_rel = anchor->T_map_body.linear().transpose() * R;
+    // z = R_a^T R_k: a right perturbation w_a of R_a moves z by -R_rel^T w_a.
+    const Eigen::Matrix3d cov_r = R_rel.transpose() * anchor->covariance.topLeftCorner<3, 3>() * R_rel +
+                                  reg.covariance.topLeftCorner<3, 3>();
+    auto& a = keyframes_[anchor->k];
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<RelativeRotationCost, 3, 4, 4>(
+            new RelativeRotationCost{Eigen::Quaterniond(R_rel), SqrtInformation3(cov_r)}),
+        new ceres::HuberLoss(config_.huber_delta), a.q, s.q);
+  }
+
+  ceres::Solver::Options options;
+  options.max_num_iterations = std::max(1, max_iterations);
+  options.linear_solver_type =
+      ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
+              ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE)
+          ? ceres::SPARSE_NORMAL_CHOLESKY
+          : ceres::DENSE_QR;
+  options.num_threads = 1;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary result;
+  ceres::Solve(options, &problem, &result);
+  summary.iterations = static_cast<int>(result.iterations.size());
+  summary.initial_cost = result.initial_cost;
+  summary.final_cost = result.final_cost;
+  summary.usable = result.IsSolutionUsable();
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace mapdelta::client

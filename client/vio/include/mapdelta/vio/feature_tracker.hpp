@@ -1,0 +1,57 @@
+#pragma once
+// Stereo KLT front end on rectified image pairs (internal: OpenCV types in the interface; only
+// the VIO's own sources include this header).
+//   1. track last frame's left features with pyramidal KLT, keep those passing a
+//      forward-backward check, then reject outliers with a fundamental-matrix RANSAC;
+//   2. detect new Shi-Tomasi corners at least `min_distance_px` from every kept feature;
+//   3. match each left feature in the right image: ZNCC search along the same row for the
+//      coarse disparity, KLT refinement, row check (rectified: |v_r - v_l| small) and a
+//      right-to-left KLT consistency check.
+#include <opencv2/core.hpp>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "mapdelta/vio/feature_tracker_config.hpp"
+
+namespace mapdelta::vio {
+
+
+struct TrackedFeature {
+  uint64_t id = 0;
+  Eigen::Vector2d left_px;
+  bool has_right = false;
+  Eigen::Vector2d right_px = Eigen::Vector2d::Zero();
+  int track_count = 1;  // frames this feature has been seen in, including this one
+};
+
+struct TrackerStats {
+  int tracked = 0, rejected_fb = 0, rejected_ransac = 0, detected = 0, stereo = 0;
+};
+
+class FeatureTracker {
+ public:
+  explicit FeatureTracker(const TrackerConfig& config = {}) : config_(config) {}
+  // `left`, `right`: 8-bit single-channel rectified images of equal size.
+  std::vector<TrackedFeature> Track(const cv::Mat& left, const cv::Mat& right);
+  const TrackerStats& last_stats() const { return stats_; }
+  void Reset();
+
+ private:
+  void TrackTemporal(const cv::Mat& left);
+  void Detect(const cv::Mat& left);
+  void MatchStereo(const cv::Mat& left, const cv::Mat& right);
+
+  TrackerConfig config_;
+  TrackerStats stats_;
+  cv::Mat prev_left_;
+  std::vector<cv::Point2f> points_;
+  std::vector<uint64_t> ids_;
+  std::vector<int> counts_;
+  std::vector<cv::Point2f> right_points_;
+  std::vector<unsigned char> has_right_;
+  uint64_t next_id_ = 1;
+};
+
+}  // namespace mapdelta::vio

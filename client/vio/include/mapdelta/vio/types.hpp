@@ -1,0 +1,55 @@
+#pragma once
+// Value types and configuration shared by the VIO's stages (no Ceres/OpenCV here).
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <vector>
+
+#include "mapdelta/common/pose.hpp"
+#include "mapdelta/vio/feature_tracker_config.hpp"
+
+namespace mapdelta::vio {
+
+// A feature of one stereo frame in normalized image coordinates (x/z, y/z of each camera).
+struct FeatureObservation {
+  uint64_t id = 0;
+  Eigen::Vector2d left = Eigen::Vector2d::Zero();
+  bool has_right = false;
+  Eigen::Vector2d right = Eigen::Vector2d::Zero();
+};
+
+struct FrameFeatures {
+  int64_t t_ns = 0;
+  std::vector<FeatureObservation> features;
+};
+
+struct NavState {
+  SE3 T_world_body = SE3::Identity();
+  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d bg = Eigen::Vector3d::Zero();  // gyro bias, rad/s
+  Eigen::Vector3d ba = Eigen::Vector3d::Zero();  // accel bias, m/s^2
+};
+
+struct VioConfig {
+  TrackerConfig tracker;
+  int window_keyframes = 10;        // keyframes kept in the optimization window
+  int init_frames = 10;             // frames used by the stereo + IMU initialization
+  double pixel_sigma = 1.0;         // feature measurement noise, px
+  double huber_sigmas = 1.5;        // robust loss threshold in units of pixel_sigma
+  double outlier_sigmas = 4.0;      // observations beyond this after a solve are removed
+  double keyframe_parallax_px = 12; // mean parallax to the last keyframe that makes a keyframe
+  int keyframe_min_tracked = 60;    // fewer landmarks shared with the last keyframe: keyframe
+  double keyframe_max_gap_s = 0.5;  // at most this long between keyframes
+  int solver_iterations = 8;
+  double solver_max_time_s = 0.08;
+  int solver_threads = 1;
+  bool compute_keyframe_covariance = true;
+  double gravity = 9.81;            // m/s^2, along -z of the odometry world frame
+  // Failure detection (reset) thresholds.
+  double max_accel_bias = 2.0;      // m/s^2
+  double max_gyro_bias = 0.5;       // rad/s
+  double max_speed = 60.0;          // m/s
+  int min_landmarks = 10;           // landmarks constraining the newest frame
+};
+
+}  // namespace mapdelta::vio

@@ -1,0 +1,174 @@
+#include "mapdelta/vio/feature_tracker.hpp"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include <cmath>
+
+namespace mapdelta::vio {
+namespace {
+
+constexpr int kBorder = 8;
+
+bool Inside(const cv::Point2f& p, const cv::Mat& image) {
+  return p.x >= kBorder && p.y >= kBorder && p.x < image.cols - kBorder &&
+         p.y < image.rows - kBorder;
+}
+
+template <typename T>
+void Compact(std::vector<T>* v, const std::vector<unsigned char>& keep) {
+  size_t j = 0;
+  for (size_t i = 0; i < v->size(); ++i) {
+    if (keep[i]) (*v)[j++] = (*v)[i];
+  }
+  v->resize(j);
+}
+
+}  // namespace
+
+void FeatureTracker::Reset() {
+  prev_left_.release();
+  points_.clear();
+  ids_.clear();
+  counts_.clear();
+}
+
+std::vector<TrackedFeature> FeatureTracker::Track(const cv::Mat& left, const cv::Mat& right) {
+  stats_ = {};
+  if (!prev_left_.empty() && !points_.empty()) TrackTemporal(left);
+  Detect(left);
+  MatchStereo(left, right);
+  prev_left_ = left.clone();
+  std::vector<TrackedFeature> out(points_.size());
+  for (size_t i = 0; i < points_.size(); ++i) {
+    out[i].id = ids_[i];
+    out[i].left_px = {points_[i].x, points_[i].y};
+    out[i].has_right = has_right_[i] != 0;
+    out[i].right_px = {right_points_[i].x, right_points_[i].y};
+    out[i].track_count = counts_[i];
+  }
+  return out;
+}
+
+void FeatureTracker::TrackTemporal(const cv::Mat& left) {
+  const cv::Size window(config_.klt_window_px, config_.klt_window_px);
+  std::vector<cv::Point2f> next, back;
+  std::vector<unsigned char> status, status_back;
+  std::vector<float> err;
+  cv::calcOpticalFlowPyrLK(prev_left_, left, points_, next, status, err, window, config_.klt_levels);
+  back = points_;
+  cv::calcOpticalFlowPyrLK(left, prev_left_, next, back, status_back, err, window,
+                           config_.klt_levels, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
+  std::vector<unsigned char> keep(points_.size(), 0);
+  for (size_t i = 0; i < points_.size(); ++i) {
+    const float fb = std::hypot(back[i].x - points_[i].x, back[i].y - points_[i].y);
+    keep[i] = status[i] && status_back[i] && fb <= config_.forward_backward_px &&
+              Inside(next[i], left);
+    if (!keep[i]) ++stats_.rejected_fb;
+  }
+  std::vector<cv::Point2f> prev = points_;
+  points_ = next;
+  Compact(&prev, keep);
+  Compact(&points_, keep);
+  Compact(&ids_, keep);
+  Compact(&counts_, keep);
+  // Outliers that KLT tracked consistently but onto the wrong structure (e.g. occlusion
+  // boundaries) violate the epipolar geometry of the frame pair.
+  if (points_.size() >= 16) {
+    std::vector<unsigned char> inliers;
+    cv::findFundamentalMat(prev, points_, cv::FM_RANSAC, config_.ransac_px, 0.99, inliers);
+    if (inliers.size() == points_.size()) {
+      for (unsigned char in : inliers) stats_.rejected_ransac += in ? 0 : 1;
+      Compact(&points_, inliers);
+      Compact(&ids_, inliers);
+      Compact(&counts_, inliers);
+    }
+  }
+  for (int& c : counts_) ++c;
+  stats_.tracked = static_cast<int>(points_.size());
+}
+
+void FeatureTracker::Detect(const cv::Mat& left) {
+  const int wanted = config_.max_features - static_cast<int>(points_.size());
+  if (wanted <= 0) return;
+  cv::Mat mask(left.size(), CV_8UC1, cv::Scalar(255));
+  for (const auto& p : points_) {
+    cv::circle(mask, p, static_cast<int>(config_.min_distance_px), cv::Scalar(0), cv::FILLED);
+  }
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(left, corners, wanted, config_.corner_quality, config_.min_distance_px,
+                          mask);
+  for (const auto& c : corners) {
+    if (!Inside(c, left)) continue;
+    points_.push_back(c);
+    ids_.push_back(next_id_++);
+    counts_.push_back(1);
+    ++stats_.detected;
+  }
+}
+
+void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
+  const size_t n = points_.size();
+  right_points_.assign(n, cv::Point2f(0, 0));
+  has_right_.assign(n, 0);
+  if (n == 0) return;
+  // 1. Coarse disparity by ZNCC along the row (large baselines defeat plain KLT).
+  constexpr int kHalf = 5;
+  std::vector<cv::Point2f> guess(n), candidates;
+  std::vector<size_t> index;
+  for (size_t i = 0; i < n; ++i) {
+    const int u = static_cast<int>(std::lround(points_[i].x));
+    const int v = static_cast<int>(std::lround(points_[i].y));
+    if (u - kHalf < 0 || v - kHalf < 0 || u + kHalf >= left.cols || v + kHalf >= left.rows) continue;
+    const int x0 = std::max(0, u - static_cast<int>(config_.max_disparity_px) - kHalf);
+    const int x1 = u + kHalf + 1;  // disparity >= 0
+    if (x1 - x0 < 2 * kHalf + 1) continue;
+    cv::Mat scores;
+    cv::matchTemplate(right(cv::Rect(x0, v - kHalf, x1 - x0, 2 * kHalf + 1)),
+                      left(cv::Rect(u - kHalf, v - kHalf, 2 * kHalf + 1, 2 * kHalf + 1)), scores,
+                      cv::TM_CCOEFF_NORMED);
+    double best = 0;
+    cv::Point at;
+    cv::minMaxLoc(scores, nullptr, &best, nullptr, &at);
+    if (!(best >= config_.min_zncc)) continue;
+    // Sub-pixel peak by a parabola through the neighbours.
+    double dx = 0;
+    if (at.x > 0 && at.x + 1 < scores.cols) {
+      const float l = scores.at<float>(0, at.x - 1), c = scores.at<float>(0, at.x),
+                  r = scores.at<float>(0, at.x + 1);
+      const double denom = l - 2 * c + r;
+      if (std::abs(denom) > 1e-9) dx = std::clamp(0.5 * (l - r) / denom, -0.5, 0.5);
+    }
+    const double x_right = x0 + at.x + dx + kHalf + (points_[i].x - u);
+    guess[i] = cv::Point2f(static_cast<float>(x_right), points_[i].y);
+    candidates.push_back(points_[i]);
+    index.push_back(i);
+  }
+  if (candidates.empty()) return;
+  // 2. KLT refinement (single level: the guess is already within a pixel or two).
+  std::vector<cv::Point2f> refined, back;
+  for (size_t i : index) refined.push_back(guess[i]);
+  std::vector<unsigned char> status, status_back;
+  std::vector<float> err;
+  const cv::Size window(config_.klt_window_px, config_.klt_window_px);
+  cv::calcOpticalFlowPyrLK(left, right, candidates, refined, status, err, window, 1, {},
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  back = candidates;
+  cv::calcOpticalFlowPyrLK(right, left, refined, back, status_back, err, window, 1, {},
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  // 3. Row and consistency checks.
+  for (size_t k = 0; k < index.size(); ++k) {
+    const cv::Point2f& l = candidates[k];
+    const cv::Point2f& r = refined[k];
+    const bool ok = status[k] && status_back[k] && std::abs(r.y - l.y) <= config_.stereo_row_px &&
+                    std::hypot(back[k].x - l.x, back[k].y - l.y) <= 1.0 && r.x <= l.x + 0.5 &&
+                    r.x >= 0 && r.x < right.cols;
+    if (!ok) continue;
+    right_points_[index[k]] = r;
+    has_right_[index[k]] = 1;
+    ++stats_.stereo;
+  }
+}
+
+}  // namespace mapdelta::vio
