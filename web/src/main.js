@@ -99,6 +99,7 @@ async function pickTile(tile) {
   const s = state.tileSize;
   view.setTile([(ix + 0.5) * s, (iy + 0.5) * s], s);
   view.info(`loading ${tile}…`);
+  const t0 = performance.now();
   try {
     const minConf = Number($('min-confidence').value) || 0;
     const summary = state.summaries.get(tile);
@@ -115,6 +116,8 @@ async function pickTile(tile) {
     if ($('show-observed').checked) await loadObserved(tile);
     view.frame();
     $('refresh-tile').disabled = !state.isAdmin;
+    // Load time (requests, parsing, upload to the GPU, first frame) for users and tests.
+    document.body.dataset.tileLoadMs = String(Math.round(performance.now() - t0));
     document.body.dataset.tileLoaded = tile;
   } catch (e) {
     view.info(`${tile}: ${e.message}`);
@@ -127,8 +130,9 @@ async function loadPrior(tile, version) {
   if (state.tile !== tile) return;
   view.setLayer('prior', prior);
   ['prior', 'new', 'removed'].forEach((k) => view.setVisible(k, $(`show-${k}`).checked));
-  const c = view.counts();
-  view.info(`tile ${tile}   prior v${version ?? '?'}: ${c.prior ?? 0} pts\n`
+  const c = view.counts(), shown = view.shown();
+  const thinned = shown.prior < c.prior ? ` (showing ${shown.prior})` : '';
+  view.info(`tile ${tile}   prior v${version ?? '?'}: ${c.prior ?? 0} pts${thinned}\n`
     + `new: ${c.new ?? 0} pts   removed: ${c.removed ?? 0} pts`);
   view.render();
 }

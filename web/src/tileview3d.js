@@ -43,17 +43,21 @@ export class TileView3D {
     grid.scale.setScalar(size / 50);
   }
 
-  // xyz: Float32Array in map coordinates, or null to drop the layer.
-  setLayer(name, xyz, pointSize = 0.35) {
+  // xyz: Float32Array in map coordinates, or null to drop the layer. Layers above `budget`
+  // points are thinned by a fixed stride for display (counts() still reports the full size),
+  // so orbiting stays interactive on weak GPUs and software rendering.
+  setLayer(name, xyz, pointSize = 0.35, budget = 300000) {
     const old = this.layers[name];
     if (old) { this.scene.remove(old); old.geometry.dispose(); old.material.dispose(); }
     delete this.layers[name];
     if (!xyz) return;
-    const local = new Float32Array(xyz.length);
-    for (let i = 0; i < xyz.length; i += 3) {
-      local[i] = xyz[i] - this.origin.x;
-      local[i + 1] = xyz[i + 1] - this.origin.y;
-      local[i + 2] = xyz[i + 2];
+    const total = xyz.length / 3;
+    const stride = Math.max(1, Math.ceil(total / budget));
+    const local = new Float32Array(Math.ceil(total / stride) * 3);
+    for (let k = 0, o = 0; k < total; k += stride, o += 3) {
+      local[o] = xyz[k * 3] - this.origin.x;
+      local[o + 1] = xyz[k * 3 + 1] - this.origin.y;
+      local[o + 2] = xyz[k * 3 + 2];
     }
     const g = new THREE.BufferGeometry();
     g.setAttribute('position', new THREE.BufferAttribute(local, 3));
@@ -64,6 +68,7 @@ export class TileView3D {
     });
     const pts = new THREE.Points(g, m);
     pts.name = name;
+    pts.userData.total = total;
     this.layers[name] = pts;
     this.scene.add(pts);
   }
@@ -92,9 +97,15 @@ export class TileView3D {
     this.render();
   }
 
-  counts() {
+  shown() {
     const out = {};
     for (const [k, v] of Object.entries(this.layers)) out[k] = v.geometry.getAttribute('position').count;
+    return out;
+  }
+
+  counts() {
+    const out = {};
+    for (const [k, v] of Object.entries(this.layers)) out[k] = v.userData.total;
     return out;
   }
 
@@ -111,10 +122,17 @@ export class TileView3D {
     this.camera.far = r * 20;
     this.camera.updateProjectionMatrix();
     this.controls.update();
-    this.render();
+    this.renderNow();
   }
 
   info(text) { this.infoEl.textContent = text; }
 
-  render() { this.renderer.render(this.scene, this.camera); }
+  // Coalesces render requests into one frame per display refresh, so a burst of orbit events
+  // never queues more draws than the renderer can do.
+  render() {
+    if (this.pending) return;
+    this.pending = requestAnimationFrame(() => { this.pending = 0; this.renderNow(); });
+  }
+
+  renderNow() { this.renderer.render(this.scene, this.camera); }
 }
