@@ -1,0 +1,34 @@
+#pragma once
+// Renders one pinhole view of a Scene: one primary ray per pixel, Lambertian shading with sun,
+// hard shadows and sky light, mirror reflections, a sky gradient. Shading is view-independent
+// except for mirrors, so the two cameras of the stereo pair see consistent brightness.
+#include <cstdint>
+#include <vector>
+
+#include "mapdelta/common/camera.hpp"
+#include "mapdelta/common/pose.hpp"
+#include "mapdelta/sim/raycaster.hpp"
+#include "mapdelta/sim/scene.hpp"
+
+namespace mapdelta::sim {
+
+struct RenderOptions {
+  bool shadows = true;
+  int max_bounces = 3;  // mirror reflections followed at most this often
+};
+
+struct RenderedView {
+  int width = 0, height = 0;
+  std::vector<float> intensity;  // display intensity in [0, 1], row-major
+  std::vector<float> depth;      // z along the optical axis in metres; 0 = sky
+};
+
+// Renders the view of a camera at T_map_cam (x right, y down, z forward).
+RenderedView RenderView(const Scene& scene, const RayCaster& caster, const PinholeCamera& camera,
+                        const SE3& T_map_cam, const RenderOptions& options);
+
+// 8-bit grey image: intensity plus gaussian noise of `sigma` (fraction of full scale). The noise
+// of pixel i is a hash of (noise_key, i): independent of thread scheduling.
+std::vector<uint8_t> ToGrey8(const RenderedView& view, double sigma, uint64_t noise_key);
+
+}  // namespace mapdelta::sim

@@ -1,0 +1,246 @@
+#include "mapdelta/sim/generator.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include "mapdelta/common/cloud_io.hpp"
+#include "mapdelta/common/depth_image.hpp"
+#include "mapdelta/common/error.hpp"
+#include "mapdelta/common/log.hpp"
+#include "mapdelta/sim/cloud_sampler.hpp"
+#include "mapdelta/sim/dataset_writer.hpp"
+#include "mapdelta/sim/imu.hpp"
+#include "mapdelta/sim/random.hpp"
+#include "mapdelta/sim/raycaster.hpp"
+#include "mapdelta/sim/renderer.hpp"
+
+namespace mapdelta::sim {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int64_t kT0Ns = 1'600'000'000'000'000'000;  // first sample of every sequence
+
+void MakeDirs(const fs::path& p) {
+  std::error_code ec;
+  fs::create_directories(p, ec);
+  if (ec) throw Error(ErrorCode::kIo, p.string() + ": cannot create directory: " + ec.message());
+}
+
+// Runs job(i) for i in [0, n) on `threads` workers, reporting progress from the calling thread.
+// Results must not depend on which worker runs which i.
+void ParallelFor(size_t n, int threads, const std::string& stage, const ProgressFn& progress,
+                 const std::function<void(size_t)>& job) {
+  std::atomic<size_t> next{0}, done{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto worker = [&] {
+    for (size_t i; (i = next.fetch_add(1)) < n;) {
+      try {
+        job(i);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+        next = n;
+      }
+      done.fetch_add(1);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
+  while (done.load() < n && !error) {
+    if (progress) progress(stage, done.load(), n);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+  if (progress) progress(stage, n, n);
+}
+
+int ThreadCount(const SimConfig& c) {
+  if (c.threads > 0) return c.threads;
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+void WriteScene(const SimConfig& c, const Scene& scene, const Scene& original,
+                const std::vector<Change>& changes, const fs::path& dir) {
+  MakeDirs(dir);
+  WriteObjectsJson((dir / "objects.json").string(), scene, changes);
+  WriteCloud((dir / "cloud.pcd").string(), SampleSceneCloud(scene, c.cloud_leaf));
+  // Ground truth of the change itself: surfaces of the added / removed buildings.
+  for (const Change& ch : changes) {
+    const Scene& where = ch.type == "removed" ? original : scene;
+    WriteCloud((dir / (ch.type + ".pcd")).string(), SampleObjectCloud(where, ch.object, c.cloud_leaf));
+  }
+}
+
+// FNV-1a: a name hash that is the same with every standard library.
+uint64_t NameHash(const std::string& name) {
+  uint64_t h = 0xcbf29ce484222325ULL;
+  for (unsigned char ch : name) h = (h ^ ch) * 0x100000001b3ULL;
+  return h;
+}
+
+double PathLength(const SplineTrajectory& traj, double duration) {
+  double len = 0;
+  Eigen::Vector3d prev = traj.Evaluate(0).p_map;
+  for (double t = 0.05; t <= duration + 1e-9; t += 0.05) {
+    const Eigen::Vector3d p = traj.Evaluate(t).p_map;
+    len += (p - prev).norm();
+    prev = p;
+  }
+  return len;
+}
+
+}  // namespace
+
+Scenes BuildScenes(const SimConfig& c) {
+  Validate(c);
+  Scenes s;
+  s.original = GenerateCity(c, c.seed);
+  s.s1 = MakeChangedScene(s.original, 1, c.seed);
+  s.s2 = MakeChangedScene(s.original, 2, c.seed);
+  return s;
+}
+
+SequencePlan PlanSequence(const SimConfig& c, const Scenes& scenes, const std::string& name) {
+  const bool s2 = name.rfind("S2", 0) == 0;
+  SequencePlan plan{name, s2 ? &scenes.s2 : &scenes.s1, "normal", c.height_01,
+                    SplineTrajectory({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}}, 1.0), 0, 0};
+  if (name.size() >= 3 && name.substr(name.size() - 3) == "_02") plan.height = c.height_02;
+  if (name == "S1_mirror") plan.variant = "mirror";
+  if (name == "S1_dark") plan.variant = "dark";
+  // Fly past the removed building first, then the added one. Mirror/dark reuse S1_01's route.
+  std::vector<Eigen::Vector2d> targets;
+  for (const Change& ch : plan.scene->changes) targets.push_back(ch.object.Bounds().Center().head<2>());
+  const uint64_t route_seed = HashCombine(c.seed, (s2 ? 2 : 1) * 10 + (plan.height == c.height_02 ? 2 : 1));
+  const double speed = c.length_m / c.duration_s;
+  // Extra route length: the spline needs three knots beyond the end.
+  const auto route = PlanRoute(plan.scene->scene.streets, targets, c.length_m + 4 * c.spline_spacing, route_seed);
+  plan.trajectory = MakeTrajectory(route, plan.height, c.spline_spacing, speed);
+  plan.duration_s = std::min(c.duration_s, plan.trajectory.duration());
+  plan.length_m = PathLength(plan.trajectory, plan.duration_s);
+  return plan;
+}
+
+void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::string& name, const std::string& out_dir,
+                      const ProgressFn& progress, size_t max_frames) {
+  const SequencePlan plan = PlanSequence(c, scenes, name);
+  Scene scene = plan.scene->scene;
+  nlohmann::json mirrors = nlohmann::json::array();
+  if (plan.variant == "mirror") {
+    const Box removed = plan.scene->changes.front().object.Bounds();
+    // A facade mirror beside the route, where the MAV passes closest to the removed building.
+    Eigen::Vector2d near = plan.trajectory.Evaluate(0).p_map.head<2>();
+    for (double t = 0; t <= plan.duration_s; t += 0.1) {
+      const Eigen::Vector2d p = plan.trajectory.Evaluate(t).p_map.head<2>();
+      if ((p - removed.Center().head<2>()).norm() < (near - removed.Center().head<2>()).norm()) near = p;
+    }
+    for (const Object& m : MakeMirrors(&scene, removed, near)) {
+      const Box b = m.Bounds();
+      mirrors.push_back({{"id", m.id}, {"min", {b.min.x(), b.min.y(), b.min.z()}}, {"max", {b.max.x(), b.max.y(), b.max.z()}}});
+    }
+  }
+  if (plan.variant == "dark") scene.lighting = DarkLighting();
+  const EmbreeCaster caster(scene);
+  const NoiseParams noise = NoiseFor(c.noise);
+
+  const fs::path mav = fs::path(out_dir) / "sequences" / name / "mav0";
+  for (const char* d : {"cam0/data", "cam1/data", "imu0", "state_groundtruth_estimate0"}) MakeDirs(mav / d);
+  if (c.write_depth) MakeDirs(mav / "depth0" / "data");
+
+  PinholeCamera cam;
+  cam.width = c.width;
+  cam.height = c.height;
+  cam.fx = c.fx;
+  cam.fy = c.fy;
+  cam.cx = c.cx;
+  cam.cy = c.cy;
+  const SE3 T_body_cam0 = BodyToCam0();
+  SE3 T_cam0_cam1 = SE3::Identity();
+  T_cam0_cam1.translation() = Eigen::Vector3d(c.baseline, 0, 0);
+  const SE3 T_body_cam1 = T_body_cam0 * T_cam0_cam1;
+  WriteCameraYaml((mav / "cam0/sensor.yaml").string(), cam, c.cam_rate_hz, T_body_cam0, "mapdelta-sim left camera");
+  WriteCameraYaml((mav / "cam1/sensor.yaml").string(), cam, c.cam_rate_hz, T_body_cam1, "mapdelta-sim right camera");
+  if (c.write_depth) {
+    WriteCameraYaml((mav / "depth0/sensor.yaml").string(), cam, c.cam_rate_hz, T_body_cam0,
+                    "mapdelta-sim ground-truth depth of cam0 (16-bit PNG, millimetres, 0 = none)");
+  }
+
+  // Images.
+  size_t frames = static_cast<size_t>(std::floor(plan.duration_s * c.cam_rate_hz + 1e-9)) + 1;
+  if (max_frames > 0) frames = std::min(frames, max_frames);
+  std::vector<int64_t> stamps(frames);
+  for (size_t k = 0; k < frames; ++k) stamps[k] = SampleTimeNs(kT0Ns, static_cast<int64_t>(k), c.cam_rate_hz);
+  const uint64_t seq_key = HashCombine(c.seed, NameHash(name));
+  const RenderOptions ropt{c.shadows, 3};
+  ParallelFor(frames, ThreadCount(c), name + " images", progress, [&](size_t k) {
+    const double t = static_cast<double>(stamps[k] - kT0Ns) * 1e-9;
+    const SE3 T_map_body = plan.trajectory.Evaluate(t).T_map_body;
+    const SE3 poses[2] = {T_map_body * T_body_cam0, T_map_body * T_body_cam1};
+    for (int ci = 0; ci < 2; ++ci) {
+      const RenderedView view = RenderView(scene, caster, cam, poses[ci], ropt);
+      const std::string file = std::to_string(stamps[k]) + ".png";
+      WriteGreyPng((mav / (ci == 0 ? "cam0/data" : "cam1/data") / file).string(), cam.width, cam.height,
+                   ToGrey8(view, noise.image_sigma, HashCombine(seq_key, 2 * k + static_cast<size_t>(ci))));
+      if (ci == 0 && c.write_depth) {
+        DepthImage depth(cam.width, cam.height);
+        depth.depth_m = view.depth;
+        WriteDepthPng((mav / "depth0/data" / file).string(), depth);
+      }
+    }
+  });
+  WriteImageCsv((mav / "cam0/data.csv").string(), stamps);
+  WriteImageCsv((mav / "cam1/data.csv").string(), stamps);
+  if (c.write_depth) WriteImageCsv((mav / "depth0/data.csv").string(), stamps);
+
+  // IMU and ground truth over the same time span as the images.
+  const double span = static_cast<double>(stamps.back() - kT0Ns) * 1e-9;
+  const auto imu = SimulateImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span, noise, seq_key);
+  WriteImuYaml((mav / "imu0/sensor.yaml").string(), c.imu_rate_hz, noise);
+  WriteImuCsv((mav / "imu0/data.csv").string(), imu);
+  WriteGroundTruthCsv((mav / "state_groundtruth_estimate0/data.csv").string(), plan.trajectory, imu, kT0Ns);
+
+  double max_rate = 0;
+  for (const ImuSample& s : imu) max_rate = std::max(max_rate, std::abs(s.gyro.z() - s.bias_gyro.z()));
+  nlohmann::json changes = nlohmann::json::array();
+  for (const Change& ch : plan.scene->changes) changes.push_back({{"type", ch.type}, {"id", ch.object.id}});
+  const nlohmann::json info = {
+      {"sequence", name}, {"scene", plan.scene->scene.name}, {"variant", plan.variant},
+      {"noise", ToString(c.noise)}, {"seed", c.seed}, {"preset", c.preset},
+      {"height_m", plan.height}, {"length_m", plan.length_m}, {"duration_s", span},
+      {"t0_ns", kT0Ns}, {"cam_rate_hz", c.cam_rate_hz}, {"imu_rate_hz", c.imu_rate_hz},
+      {"frames", frames}, {"baseline_m", c.baseline}, {"image_noise_sigma", noise.image_sigma},
+      {"max_yaw_rate_rad_s", max_rate}, {"changes", changes}, {"mirrors", mirrors},
+      {"ground_truth_cloud", "scenes/" + plan.scene->scene.name + "/cloud.pcd"}};
+  std::ofstream out(fs::path(out_dir) / "sequences" / name / "info.json");
+  out << info.dump(1) << '\n';
+  if (!out) throw Error(ErrorCode::kIo, (fs::path(out_dir) / "sequences" / name / "info.json").string() + ": write failed");
+  MD_LOG(kInfo, "sequence " << name << ": " << frames << " stereo frames, " << imu.size() << " IMU samples, "
+                            << plan.length_m << " m, max yaw rate " << max_rate << " rad/s");
+}
+
+void GenerateDataset(const SimConfig& c, const std::string& out_dir, const ProgressFn& progress) {
+  const Scenes scenes = BuildScenes(c);
+  const fs::path root(out_dir);
+  const std::pair<const Scene*, const std::vector<Change>*> list[3] = {
+      {&scenes.original, nullptr}, {&scenes.s1.scene, &scenes.s1.changes}, {&scenes.s2.scene, &scenes.s2.changes}};
+  const std::vector<Change> none;
+  for (size_t i = 0; i < 3; ++i) {
+    if (progress) progress("scene clouds", i, 3);
+    WriteScene(c, *list[i].first, scenes.original, list[i].second ? *list[i].second : none,
+               root / "scenes" / list[i].first->name);
+  }
+  if (progress) progress("scene clouds", 3, 3);
+  for (const std::string& name : c.sequences) GenerateSequence(c, scenes, name, out_dir, progress);
+}
+
+}  // namespace mapdelta::sim

@@ -1,0 +1,98 @@
+#include "mapdelta/sim/renderer.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "mapdelta/sim/random.hpp"
+#include "mapdelta/sim/texture.hpp"
+
+namespace mapdelta::sim {
+namespace {
+
+constexpr float kEps = 2e-3f;  // offset of secondary ray origins from the surface (m)
+
+float Sky(const Lighting& l, const Eigen::Vector3f& dir) {
+  // Bright near the horizon, darker towards the zenith; scaled with the sky light.
+  const float up = std::max(0.f, dir.normalized().z());
+  return static_cast<float>(l.ambient / 0.35) * (0.82f - 0.3f * up);
+}
+
+// Radiance along a ray (linear); writes the first hit's ray parameter to *t_first.
+float Trace(const Scene& s, const RayCaster& caster, const RenderOptions& opt, float fx,
+            Eigen::Vector3f o, Eigen::Vector3f d, float* t_first) {
+  float weight = 1.f, travelled = 0.f;
+  const Lighting& l = s.lighting;
+  const Eigen::Vector3f sun = l.sun_dir.cast<float>();
+  for (int bounce = 0;; ++bounce) {
+    Hit hit;
+    if (!caster.Intersect(o, d, 0.f, 1e5f, &hit)) {
+      if (bounce == 0) *t_first = 0.f;
+      return weight * Sky(l, d);
+    }
+    if (bounce == 0) *t_first = hit.t;
+    const Eigen::Vector3f p = o + hit.t * d;
+    const float dist = hit.t * d.norm();
+    travelled += dist;
+    const Eigen::Vector3f n = hit.normal;
+    const bool mirror = hit.object >= 0 && s.objects[static_cast<size_t>(hit.object)].material == Material::kMirror;
+    if (mirror && bounce < opt.max_bounces) {
+      const Eigen::Vector3f dn = d / d.norm();
+      weight *= 0.85f;
+      d = dn - 2.f * dn.dot(n) * n;
+      o = p + kEps * n;
+      continue;
+    }
+    // Pixel footprint on the surface: the cone widens with the distance travelled and
+    // stretches at grazing angles (clamped: the stretch is only along one axis).
+    const float cosang = std::abs(n.dot(d)) / d.norm();
+    const float footprint = travelled / fx / std::max(cosang, 0.2f);
+    const float albedo = SurfaceAlbedo(s, hit, p, std::max(footprint, 1e-4f));
+    float direct = 0.f;
+    const float ndots = n.dot(sun);
+    if (ndots > 0.f) {
+      direct = ndots;
+      if (opt.shadows && caster.Occluded(p + kEps * n, sun, 0.f, 1e4f)) direct = 0.f;
+    }
+    const float sky = static_cast<float>(l.ambient) * (0.7f + 0.3f * n.z());
+    return weight * albedo * (static_cast<float>(l.sun) * direct + sky);
+  }
+}
+
+}  // namespace
+
+RenderedView RenderView(const Scene& s, const RayCaster& caster, const PinholeCamera& cam,
+                        const SE3& T_map_cam, const RenderOptions& opt) {
+  RenderedView out;
+  out.width = cam.width;
+  out.height = cam.height;
+  out.intensity.assign(static_cast<size_t>(cam.width) * cam.height, 0.f);
+  out.depth.assign(out.intensity.size(), 0.f);
+  const Eigen::Matrix3f R = T_map_cam.linear().cast<float>();
+  const Eigen::Vector3f o = T_map_cam.translation().cast<float>();
+  const float exposure = static_cast<float>(s.lighting.exposure);
+  for (int v = 0; v < cam.height; ++v) {
+    for (int u = 0; u < cam.width; ++u) {
+      // Unnormalized direction with z = 1 in the camera: the hit's ray parameter is its depth.
+      const Eigen::Vector3f dc(static_cast<float>((u - cam.cx) / cam.fx), static_cast<float>((v - cam.cy) / cam.fy), 1.f);
+      float t = 0.f;
+      const float radiance = Trace(s, caster, opt, static_cast<float>(cam.fx), o, R * dc, &t);
+      const size_t i = static_cast<size_t>(v) * cam.width + u;
+      // Display response: a gamma curve, so shadows keep texture.
+      out.intensity[i] = std::pow(std::min(1.f, std::max(0.f, exposure * radiance)), 1.f / 1.8f);
+      out.depth[i] = t;
+    }
+  }
+  return out;
+}
+
+std::vector<uint8_t> ToGrey8(const RenderedView& view, double sigma, uint64_t noise_key) {
+  std::vector<uint8_t> img(view.intensity.size());
+  for (size_t i = 0; i < img.size(); ++i) {
+    double value = view.intensity[i];
+    if (sigma > 0) value += sigma * HashGaussian(HashCombine(noise_key, i));
+    img[i] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(value, 0.0, 1.0)));
+  }
+  return img;
+}
+
+}  // namespace mapdelta::sim
