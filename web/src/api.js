@@ -68,7 +68,9 @@ export class Api {
     return {
       priorVersion: j.prior_version ?? null,
       tileSize: j.tile_size_m ?? null,
-      tiles: rows.map((r) => ({ tile: r.tile ?? r.tile_id, points: r.points ?? r.num_points ?? 0 })),
+      tiles: rows.map((r) => ({
+        tile: r.tile ?? r.tile_id, points: r.points ?? 0, tileVersion: r.tile_version ?? null,
+      })),
     };
   }
 
@@ -76,6 +78,19 @@ export class Api {
     const q = new URLSearchParams({ format: 'json', min_confidence: String(minConfidence) });
     return this.request(`/v1/changes/tiles/${encodeURIComponent(tile)}?${q}`);
   }
+
+  // version -> {source: 'import'|'refresh', ...}; empty if the server does not list versions.
+  async priorVersions() {
+    try {
+      const j = await this.request('/v1/prior/versions');
+      return new Map((j.versions ?? []).map((v) => [v.version, v]));
+    } catch (e) {
+      if (e instanceof ApiError && e.status === 404) return new Map();
+      throw e;
+    }
+  }
+
+  session(id) { return this.request(`/v1/sessions/${encodeURIComponent(id)}`); }
 
   tileChangeCloud(tile, kind, minConfidence = 0) {
     const q = new URLSearchParams({ format: 'pcd', kind, min_confidence: String(minConfidence) });
@@ -110,16 +125,21 @@ export class Api {
   }
 }
 
+// Refresh jobs apply changes with confidence >= 0.5 by default (server CreateJob), so a tile
+// whose best change reaches that is "confirmed": a refresh would change it.
+export const CONFIRM_CONFIDENCE = 0.5;
+
 // One changed-tile row in the page's own field names, whatever spelling the server uses.
 export function normalizeTileSummary(r) {
   const num = (...vals) => { for (const v of vals) if (typeof v === 'number') return v; return 0; };
+  const confidence = num(r.max_confidence, r.confidence);
   return {
     tile: r.tile ?? r.tile_id,
-    state: r.state ?? r.change_state ?? 'candidate',
-    confidence: num(r.confidence, r.max_confidence),
-    new_points: num(r.new_points, r.num_new, r.counts?.new, r.new),
-    removed_points: num(r.removed_points, r.num_removed, r.counts?.removed, r.removed),
-    updated_at: r.updated_at ?? r.last_seen ?? null,
-    sessions: num(r.sessions, r.num_sessions, r.session_count),
+    state: r.state ?? (confidence >= CONFIRM_CONFIDENCE ? 'confirmed' : 'candidate'),
+    confidence,
+    new_points: num(r.new_count, r.new_points, r.counts?.new),
+    removed_points: num(r.removed_count, r.removed_points, r.counts?.removed),
+    updated_at: r.updated_at ?? null,
+    prior_version: r.prior_version ?? null,
   };
 }

@@ -14,7 +14,7 @@ import { TileView3D } from './tileview3d.js';
 const TOKEN_KEY = 'mapdelta.token';
 const $ = (id) => document.getElementById(id);
 const api = new Api(() => localStorage.getItem(TOKEN_KEY) || '');
-const state = { priorVersion: null, tileSize: 50, summaries: new Map(), tile: null, version: null };
+const state = { priorVersion: null, tileSize: 50, summaries: new Map(), refreshed: new Set(), tile: null, version: null };
 let loadSeq = 0;
 
 function status(text, isError = false) {
@@ -56,7 +56,20 @@ async function loadView(bbox) {
     if (changes.tileSize || prior.tileSize) state.tileSize = changes.tileSize ?? prior.tileSize;
     top.tileSize = state.tileSize;
     state.summaries = new Map(changes.tiles.map((t) => [t.tile, t]));
-    top.changed = state.summaries;
+    // A tile whose prior row was written by a refresh job, and that has no newer changes,
+    // shows as "refreshed".
+    if (state.versionsOf !== state.priorVersion) {
+      state.versions = await api.priorVersions();
+      state.versionsOf = state.priorVersion;
+    }
+    if (seq !== loadSeq) return;
+    state.refreshed = new Set(prior.tiles.filter((t) => state.versions.get(t.tileVersion)?.source === 'refresh')
+      .map((t) => t.tile));
+    const shown = new Map(state.summaries);
+    for (const id of state.refreshed) {
+      if (!shown.has(id)) shown.set(id, { tile: id, state: 'refreshed', confidence: 1 });
+    }
+    top.changed = shown;
     top.priorTiles = new Map(prior.tiles.map((t) => [t.tile, t.points]));
     top.draw();
     list.set(changes.tiles, changes.complete);
@@ -103,15 +116,15 @@ async function pickTile(tile) {
   try {
     const minConf = Number($('min-confidence').value) || 0;
     const summary = state.summaries.get(tile);
-    const [report, added, removed] = await Promise.all([
-      summary ? api.tileChanges(tile, minConf) : Promise.resolve({ tile, state: 'none' }),
-      summary ? loadCloud(api.tileChangeCloud(tile, 'new', minConf)) : null,
-      summary ? loadCloud(api.tileChangeCloud(tile, 'removed', minConf)) : null,
-    ]);
+    // The JSON report carries every change point (position, confidence, sessions), so one
+    // request gives both the evidence and the new/removed clouds.
+    const report = summary ? await api.tileChanges(tile, minConf) : { tile };
     if (state.tile !== tile) return;
-    renderEvidence($('evidence'), summarizeReport(report, summary ?? { tile, state: 'none' }));
-    view.setLayer('new', added);
-    view.setLayer('removed', removed);
+    const facts = summarizeReport(report, summary ?? { tile, state: state.refreshed.has(tile) ? 'refreshed' : 'none' });
+    renderEvidence($('evidence'), facts);
+    loadSessionDetails(tile, facts);
+    view.setLayer('new', changeXyz(report.new));
+    view.setLayer('removed', changeXyz(report.removed));
     await loadPrior(tile, state.version ?? state.priorVersion);
     if ($('show-observed').checked) await loadObserved(tile);
     view.frame();
@@ -123,6 +136,22 @@ async function pickTile(tile) {
     view.info(`${tile}: ${e.message}`);
     status(e.message, true);
   }
+}
+
+function changeXyz(list) {
+  if (!Array.isArray(list) || list.length === 0) return null;
+  const xyz = new Float32Array(list.length * 3);
+  list.forEach((c, i) => xyz.set(c.p, i * 3));
+  return xyz;
+}
+
+// Vehicle and commit time of the sessions behind the evidence (at most 50 looked up).
+async function loadSessionDetails(tile, facts) {
+  const details = new Map();
+  await Promise.all(facts.sessions.slice(0, 50).map(async (x) => {
+    try { details.set(x.id, await api.session(x.id)); } catch { /* shown as unknown */ }
+  }));
+  if (state.tile === tile && details.size) renderEvidence($('evidence'), facts, details);
 }
 
 async function loadPrior(tile, version) {
