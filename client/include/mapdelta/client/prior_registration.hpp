@@ -1,0 +1,49 @@
+#pragma once
+// Stage 4: registration of a local cloud to the prior map (common's GICP with covariance and
+// its quality gate), plus the start-up refinement of a rough initial pose (e.g. GNSS).
+// Rejected registrations carry the gate's reason; the caller logs them and never fuses them.
+#include <memory>
+#include <string>
+
+#include "mapdelta/client/config.hpp"
+#include "mapdelta/client/prior_source.hpp"
+#include "mapdelta/common/point_cloud.hpp"
+#include "mapdelta/common/pose.hpp"
+
+namespace mapdelta::client {
+
+struct RegistrationOutcome {
+  bool accepted = false;
+  std::string reason;                    // "accepted" or why the gate rejected it
+  SE3 T_map_body = SE3::Identity();      // the registered pose of the anchor keyframe
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+  double fitness_m = 0;
+  double correction_m = 0;
+  double correction_rad = 0;
+  int iterations = 0;
+  size_t source_points = 0;
+  size_t prior_points = 0;
+  double seconds = 0;
+};
+
+class PriorRegistrar {
+ public:
+  PriorRegistrar(const RegistrationConfig& config, PriorSource* prior, int num_threads = 2);
+  ~PriorRegistrar();
+
+  // local_body: the local cloud in the anchor's body frame; guess: predicted T_map_body.
+  RegistrationOutcome Register(const PointCloud& local_body, const SE3& guess_T_map_body);
+
+  // Start-up: coarse-to-fine registration from a rough guess. The coarse pass uses a wide
+  // correspondence radius so a guess off by several metres still finds its surfaces; the
+  // result passes the normal fitness gate and a correction limit of max_guess_error_m/_rad.
+  RegistrationOutcome RefineInitialPose(const PointCloud& local_body, const SE3& guess_T_map_body,
+                                        double max_guess_error_m = 4.0,
+                                        double max_guess_error_rad = 0.26);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mapdelta::client

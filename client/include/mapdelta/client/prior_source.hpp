@@ -1,0 +1,62 @@
+#pragma once
+// Where the prior map comes from: a local PCD/PLY file (offline mode) or the server's prior
+// tiles around the vehicle (GET /v1/prior/tiles?x=&y=&radius=, then each tile as PCD), cached
+// on disk per prior version and refreshed when the vehicle moves into other tiles.
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mapdelta/client/http_transport.hpp"
+#include "mapdelta/common/point_cloud.hpp"
+#include "mapdelta/common/tiling.hpp"
+
+namespace mapdelta::client {
+
+class PriorSource {
+ public:
+  virtual ~PriorSource() = default;
+  // Prior points within radius_m (x/y square) of (x, y), map frame. May throw Error(kIo).
+  virtual PointCloud CloudAround(double x, double y, double radius_m) = 0;
+  // Changes each time CloudAround would return a different set of points (new tiles).
+  virtual std::string Key(double x, double y, double radius_m) = 0;
+};
+
+class FilePriorSource : public PriorSource {
+ public:
+  // Reads the cloud (voxel-downsampled to voxel_m if > 0). Throws Error naming the file.
+  FilePriorSource(const std::string& path, double voxel_m, double tile_size_m = 50.0);
+  PointCloud CloudAround(double x, double y, double radius_m) override;
+  std::string Key(double x, double y, double radius_m) override;
+  size_t size() const { return cloud_.size(); }
+
+ private:
+  PointCloud cloud_;
+  TileGrid grid_;
+};
+
+class ServerPriorSource : public PriorSource {
+ public:
+  ServerPriorSource(HttpTransport* transport, const std::string& cache_dir, double voxel_m);
+  PointCloud CloudAround(double x, double y, double radius_m) override;
+  std::string Key(double x, double y, double radius_m) override;
+  size_t tiles_downloaded() const { return downloaded_; }
+
+ private:
+  struct Listing {
+    int64_t version = 0;
+    std::vector<std::pair<std::string, std::string>> tiles;  // tile id, url
+  };
+  Listing List(double x, double y, double radius_m);
+  const PointCloud& Tile(int64_t version, const std::string& tile, const std::string& url);
+
+  HttpTransport* transport_;
+  std::string cache_dir_;
+  double voxel_m_;
+  std::map<std::string, PointCloud> memory_;  // "version/tile" -> points
+  std::map<std::string, Listing> listings_;   // listing per query key
+  size_t downloaded_ = 0;
+  TileGrid grid_{50.0};
+};
+
+}  // namespace mapdelta::client

@@ -1,0 +1,51 @@
+#pragma once
+// Stage 6: the uploader. Keyframes (fused T_map_cam, its covariance, filtered depth as 16-bit
+// PNG) go into a durable UploadQueue as soon as they are final; Run() creates the session if
+// the queue has none, PUTs the items in seq order (the server wants them in order), retries
+// transient failures with exponential backoff, and commits once the queue is sealed and empty.
+#include <atomic>
+#include <optional>
+#include <string>
+
+#include "mapdelta/client/config.hpp"
+#include "mapdelta/client/http_transport.hpp"
+#include "mapdelta/client/upload_queue.hpp"
+#include "mapdelta/common/keyframes.hpp"
+
+namespace mapdelta::client {
+
+// The meta JSON of docs/api.md: {"t_ns", "T_map_cam": {"t", "q": [qw,qx,qy,qz]}, "covariance"}.
+std::string KeyframeMetaJson(const Keyframe& keyframe);
+
+struct UploadReport {
+  size_t uploaded = 0;  // acknowledged keyframes (including identical retries)
+  size_t conflicts = 0; // 409: the server holds different content for that seq (not retried)
+  size_t retries = 0;   // transient failures retried
+  bool committed = false;
+  std::string session_id;
+  std::string fatal;    // non-empty: stopped on a permanent error (auth, bad request)
+};
+
+class Uploader {
+ public:
+  Uploader(const UploadConfig& config, const PinholeCamera& camera, UploadQueue* queue,
+           HttpTransport* transport);
+
+  // Encodes and enqueues a keyframe (durable on return). Thread-safe with Run.
+  int64_t Enqueue(const Keyframe& keyframe);
+
+  // Works until the session is committed, a permanent error occurs, or stop becomes true.
+  // While the queue is not sealed and empty it waits for more items.
+  UploadReport Run(const std::atomic<bool>& stop);
+
+ private:
+  bool Backoff(double* delay_s, const std::atomic<bool>& stop, UploadReport* report);
+  std::string SessionPath() const;
+
+  UploadConfig config_;
+  PinholeCamera camera_;
+  UploadQueue* queue_;
+  HttpTransport* transport_;
+};
+
+}  // namespace mapdelta::client

@@ -1,0 +1,103 @@
+#include "mapdelta/client/prior_registration.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <optional>
+
+#include "mapdelta/common/log.hpp"
+#include "mapdelta/common/registration/gicp.hpp"
+#include "mapdelta/common/registration/registration_gate.hpp"
+
+namespace mapdelta::client {
+
+struct PriorRegistrar::Impl {
+  RegistrationConfig config;
+  PriorSource* prior = nullptr;
+  int num_threads = 2;
+  std::string target_key;
+  std::optional<GicpCloud> target;  // prepared once per prior neighbourhood
+
+  GicpParams Params(double max_correspondence_m) const {
+    GicpParams p;
+    p.max_iterations = config.max_iterations;
+    p.max_correspondence_m = max_correspondence_m;
+    p.num_threads = num_threads;
+    p.covariance_scale = config.covariance_scale;
+    return p;
+  }
+
+  // The prior around (x, y), rebuilt only when the neighbourhood (its tiles) changes.
+  const GicpCloud* Target(const Eigen::Vector3d& position) {
+    const double r = config.prior_radius_m;
+    const std::string key = prior->Key(position.x(), position.y(), r);
+    if (!target || key != target_key) {
+      const PointCloud points = prior->CloudAround(position.x(), position.y(), r);
+      if (points.size() < 10) return nullptr;
+      target.emplace(points, Params(config.max_correspondence_m));
+      target_key = key;
+    }
+    return &*target;
+  }
+
+  RegistrationOutcome Run(const PointCloud& local, const SE3& guess, double coarse_corr_m,
+                          const RegistrationGate& gate) {
+    const auto start = std::chrono::steady_clock::now();
+    RegistrationOutcome out;
+    out.source_points = local.size();
+    const GicpCloud* tgt = Target(guess.translation());
+    if (tgt == nullptr) {
+      out.reason = "no prior points within " + std::to_string(config.prior_radius_m) + " m";
+      return out;
+    }
+    out.prior_points = tgt->size();
+    SE3 init = guess;
+    if (coarse_corr_m > config.max_correspondence_m) {
+      // 1. Coarse pass: wide correspondences pull a far-off guess onto the surfaces.
+      const RegistrationResult coarse = AlignGicp(*tgt, local, guess, Params(coarse_corr_m));
+      if (coarse.converged || coarse.iterations > 0) init = coarse.T_target_source;
+    }
+    // 2. Fine pass with the production radius; its Hessian gives the covariance.
+    const RegistrationResult result = AlignGicp(*tgt, local, init, Params(config.max_correspondence_m));
+    const GateDecision decision = CheckRegistration(result, guess, gate);
+    out.accepted = decision.accepted;
+    out.reason = decision.reason;
+    out.T_map_body = result.T_target_source;
+    out.covariance = result.covariance;
+    out.fitness_m = result.fitness_m;
+    out.correction_m = decision.correction_m;
+    out.correction_rad = decision.correction_rad;
+    out.iterations = result.iterations;
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return out;
+  }
+};
+
+PriorRegistrar::PriorRegistrar(const RegistrationConfig& config, PriorSource* prior, int num_threads)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->config = config;
+  impl_->prior = prior;
+  impl_->num_threads = std::max(1, num_threads);
+}
+PriorRegistrar::~PriorRegistrar() = default;
+
+RegistrationOutcome PriorRegistrar::Register(const PointCloud& local_body, const SE3& guess) {
+  RegistrationGate gate;
+  gate.max_fitness_m = impl_->config.max_fitness_m;
+  gate.max_correction_m = impl_->config.max_correction_m;
+  gate.max_correction_rad = impl_->config.max_correction_deg * M_PI / 180.0;
+  return impl_->Run(local_body, guess, 0.0, gate);
+}
+
+RegistrationOutcome PriorRegistrar::RefineInitialPose(const PointCloud& local_body, const SE3& guess,
+                                                      double max_guess_error_m,
+                                                      double max_guess_error_rad) {
+  RegistrationGate gate;
+  gate.max_fitness_m = impl_->config.max_fitness_m;
+  gate.max_correction_m = max_guess_error_m;
+  gate.max_correction_rad = max_guess_error_rad;
+  const double coarse = std::max(2.5 * impl_->config.max_correspondence_m, 2.0 * max_guess_error_m);
+  return impl_->Run(local_body, guess, coarse, gate);
+}
+
+}  // namespace mapdelta::client

@@ -1,0 +1,152 @@
+#include "mapdelta/vio/initializer.hpp"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+#include <Eigen/Dense>
+#include <unordered_map>
+
+#include "mapdelta/common/log.hpp"
+
+namespace mapdelta::vio {
+
+Initializer::Initializer(const VioConfig& config, const StereoExtrinsics& extrinsics)
+    : config_(config), ext_(extrinsics) {}
+
+std::optional<std::vector<InitFrame>> Initializer::AddFrame(const FrameFeatures& features,
+                                                            const ImuPreintegration& pre) {
+  InitFrame frame{features, pre, {}};
+  if (!frames_.empty()) {
+    SE3 T_prev_cur;
+    if (!RelativeMotion(frames_.back().features, features, &T_prev_cur)) {
+      MD_LOG(kDebug, "vio init: stereo PnP failed at t_ns=" << features.t_ns << ", restarting");
+      frames_.clear();
+      frame.pre = ImuPreintegration(pre.noise(), pre.bg0(), pre.ba0());
+    } else {
+      const SE3& T_w_prev = frames_.back().state.T_world_body;
+      frame.state.T_world_body =
+          T_w_prev * ext_.T_body_cam0 * T_prev_cur * ext_.T_body_cam0.inverse();
+    }
+  }
+  frames_.push_back(std::move(frame));
+  if (static_cast<int>(frames_.size()) < config_.init_frames) return std::nullopt;
+  std::vector<InitFrame> out(frames_.begin(), frames_.end());
+  if (!Align(&out)) {
+    frames_.pop_front();  // slide: try again with the next frame
+    return std::nullopt;
+  }
+  frames_.clear();
+  return out;
+}
+
+bool Initializer::RelativeMotion(const FrameFeatures& prev, const FrameFeatures& cur,
+                                 SE3* T_prev_cur) const {
+  std::unordered_map<uint64_t, const FeatureObservation*> by_id;
+  for (const auto& f : cur.features) by_id[f.id] = &f;
+  std::vector<cv::Point3f> object;
+  std::vector<cv::Point2f> image;
+  const SE3 T_c0_c1 = ext_.T_cam0_cam1();
+  for (const auto& f : prev.features) {
+    if (!f.has_right) continue;
+    const auto it = by_id.find(f.id);
+    if (it == by_id.end()) continue;
+    const auto P = TriangulateStereo(f.left, f.right, T_c0_c1);
+    if (!P || P->z() > 200.0) continue;
+    object.emplace_back(P->x(), P->y(), P->z());
+    image.emplace_back(it->second->left.x(), it->second->left.y());
+  }
+  if (object.size() < 12) return false;
+  cv::Mat rvec, tvec;
+  std::vector<int> inliers;
+  const double threshold = 2.0 / ext_.focal_px;  // 2 px in normalized coordinates
+  const bool ok = cv::solvePnPRansac(object, image, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec,
+                                     tvec, false, 100, static_cast<float>(threshold), 0.99,
+                                     inliers, cv::SOLVEPNP_ITERATIVE);
+  if (!ok || inliers.size() < 10) return false;
+  cv::Mat R_cv;
+  cv::Rodrigues(rvec, R_cv);
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  cv::cv2eigen(R_cv, R);
+  cv::cv2eigen(tvec, t);
+  SE3 T_cur_prev = SE3::Identity();
+  T_cur_prev.linear() = R;
+  T_cur_prev.translation() = t;
+  *T_prev_cur = T_cur_prev.inverse();
+  return true;
+}
+
+bool Initializer::Align(std::vector<InitFrame>* frames_ptr) const {
+  auto& frames = *frames_ptr;
+  const int n = static_cast<int>(frames.size());
+  // 1. Gyro bias: visual rotation vs. preintegrated rotation, one Gauss-Newton step.
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (int k = 1; k < n; ++k) {
+    const auto& pre = frames[k].pre;
+    const Eigen::Quaterniond R_ij(frames[k - 1].state.T_world_body.linear().transpose() *
+                                  frames[k].state.T_world_body.linear());
+    const Eigen::Matrix3d J = pre.J_R_bg();
+    A += J.transpose() * J;
+    b += J.transpose() * LogQ(pre.dR().conjugate() * R_ij);
+  }
+  const Eigen::Vector3d bg = frames[1].pre.bg0() + A.ldlt().solve(b);
+  if (!bg.allFinite() || bg.norm() > config_.max_gyro_bias) return false;
+  for (int k = 1; k < n; ++k) frames[k].pre.Reintegrate(bg, frames[k].pre.ba0());
+
+  // 2. Velocities v_0..v_{n-1} and gravity g in the first body frame (world of the chain):
+  //    p_j - p_i - R_i dp = v_i dt + g dt^2 / 2 and R_i dv = v_j - v_i - g dt.
+  const int unknowns = 3 * n + 3;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(6 * (n - 1), unknowns);
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(6 * (n - 1));
+  for (int k = 1; k < n; ++k) {
+    const auto& pre = frames[k].pre;
+    const double dt = pre.dt();
+    const Eigen::Matrix3d R_i = frames[k - 1].state.T_world_body.linear();
+    const Eigen::Vector3d p_i = frames[k - 1].state.T_world_body.translation();
+    const Eigen::Vector3d p_j = frames[k].state.T_world_body.translation();
+    const int row = 6 * (k - 1);
+    const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+    // Position rows divided by dt so both row kinds are in m/s.
+    M.block<3, 3>(row, 3 * (k - 1)) = I;
+    M.block<3, 3>(row, 3 * n) = 0.5 * dt * I;
+    y.segment<3>(row) = (p_j - p_i - R_i * pre.dp()) / dt;
+    M.block<3, 3>(row + 3, 3 * (k - 1)) = -I;
+    M.block<3, 3>(row + 3, 3 * k) = I;
+    M.block<3, 3>(row + 3, 3 * n) = -dt * I;
+    y.segment<3>(row + 3) = R_i * pre.dv();
+  }
+  Eigen::VectorXd x = M.colPivHouseholderQr().solve(y);
+  const Eigen::Vector3d g = x.tail<3>();
+  if (!x.allFinite() || std::abs(g.norm() - config_.gravity) > 0.1 * config_.gravity) {
+    MD_LOG(kDebug, "vio init: implausible gravity |g|=" << g.norm() << ", waiting");
+    return false;
+  }
+  // 3. Fix |g| and re-solve the velocities with gravity known.
+  const Eigen::Vector3d g_fixed = g.normalized() * config_.gravity;
+  const Eigen::VectorXd y_fixed = y - M.rightCols<3>() * g_fixed;
+  const Eigen::VectorXd v = M.leftCols(3 * n).colPivHouseholderQr().solve(y_fixed);
+  const double rms = std::sqrt((M.leftCols(3 * n) * v - y_fixed).squaredNorm() / y.size());
+  if (rms > 0.5) {
+    MD_LOG(kDebug, "vio init: velocity fit residual " << rms << " m/s too large, waiting");
+    return false;
+  }
+  // 4. Rotate the chain so gravity points along -z.
+  const Eigen::Matrix3d R_align =
+      Eigen::Quaterniond::FromTwoVectors(g_fixed, Eigen::Vector3d(0, 0, -config_.gravity))
+          .toRotationMatrix();
+  SE3 T_align = SE3::Identity();
+  T_align.linear() = R_align;
+  for (int k = 0; k < n; ++k) {
+    frames[k].state.T_world_body = T_align * frames[k].state.T_world_body;
+    frames[k].state.v_world = R_align * v.segment<3>(3 * k);
+    frames[k].state.bg = bg;
+    frames[k].state.ba.setZero();
+  }
+  MD_LOG(kInfo, "vio initialized at t_ns=" << frames.back().features.t_ns << ": |g|="
+                                           << g.norm() << " bg=" << bg.transpose()
+                                           << " speed=" << frames.back().state.v_world.norm());
+  return true;
+}
+
+}  // namespace mapdelta::vio

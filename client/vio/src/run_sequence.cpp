@@ -1,0 +1,58 @@
+#include "mapdelta/vio/run_sequence.hpp"
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "mapdelta/common/error.hpp"
+
+namespace mapdelta::vio {
+namespace {
+
+cv::Mat ReadGray(const std::string& path) {
+  cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (image.empty()) throw Error(ErrorCode::kIo, path + ": cannot read image");
+  return image;
+}
+
+GrayImageView View(const cv::Mat& m) {
+  return {m.cols, m.rows, static_cast<int>(m.step), m.data};
+}
+
+}  // namespace
+
+SequenceRunResult RunSequence(const EurocSequence& sequence, const VioConfig& config,
+                              const SequenceRunOptions& options) {
+  StereoInertialOdometry vio(config, sequence.cam0, sequence.cam1, sequence.imu);
+  const auto frames = sequence.StereoFrames();
+  const int total = options.max_frames > 0
+                        ? std::min<int>(options.max_frames, static_cast<int>(frames.size()))
+                        : static_cast<int>(frames.size());
+  SequenceRunResult result;
+  size_t imu_index = 0;
+  const auto& imu = sequence.imu_samples;
+  for (int i = 0; i < total; ++i) {
+    const auto& frame = frames[i];
+    // Feed IMU up to the frame time plus one sample after it (for interpolation).
+    while (imu_index < imu.size() && imu[imu_index].t_ns <= frame.t_ns) vio.AddImu(imu[imu_index++]);
+    if (imu_index < imu.size()) vio.AddImu(imu[imu_index]);
+    const cv::Mat left = ReadGray(frame.left_path);
+    const cv::Mat right = ReadGray(frame.right_path);
+    const FrameEstimate e = vio.AddStereoFrame(frame.t_ns, View(left), View(right));
+    ++result.processed;
+    if (e.reset) ++result.resets;
+    if (e.initialized) {
+      ++result.initialized;
+      result.frames.push_back({e.t_ns, e.T_world_body});
+    }
+    if (options.on_frame) options.on_frame(i, total, e);
+  }
+  vio.Finish();
+  for (const auto& k : vio.TakeFinalizedKeyframes()) {
+    result.keyframes.push_back({k.t_ns, k.T_world_body});
+    result.keyframe_covariances.push_back(k.relative_covariance);
+  }
+  result.times = vio.accumulated_times();
+  if (total > 1) result.sequence_duration_s = 1e-9 * static_cast<double>(frames[total - 1].t_ns - frames[0].t_ns);
+  return result;
+}
+
+}  // namespace mapdelta::vio
