@@ -1,0 +1,74 @@
+#pragma once
+// The server's one configuration file (YAML). Every key has a default and a unit here;
+// config/server.example.yaml documents each. Unknown keys are errors, and all problems are
+// reported at once in one Error(kParse) whose message lists them.
+#include <cstdint>
+#include <string>
+
+namespace mapdelta::server {
+
+struct HttpConfig {
+  std::string listen_address = "127.0.0.1";
+  int port = 8080;
+  int threads = 8;                              // HTTP worker threads
+  int64_t max_body_bytes = 1 << 20;             // JSON bodies
+  int64_t max_keyframe_bytes = 8 << 20;         // one multipart keyframe upload
+  int64_t max_prior_bytes = int64_t{1} << 30;   // a prior map import
+  int read_timeout_s = 30;
+  int write_timeout_s = 60;
+};
+
+struct StorageConfig {
+  std::string database = "mapdelta.db";  // SQLite file (WAL files beside it)
+  double tile_size_m = 50.0;
+};
+
+struct LogConfig {
+  std::string level = "info";   // debug | info | warn | error
+  std::string format = "json";  // json | text
+};
+
+struct IngestConfig {
+  int64_t max_keyframes_per_session = 20000;
+  int max_image_width = 4096;
+  int max_image_height = 4096;
+};
+
+// Parameters of the commit pipeline (paper section III-C and the reference config).
+struct PipelineConfig {
+  double max_depth_m = 50.0;          // th_d: pixels deeper than this are not used
+  double free_space_depth_m = 15.0;   // th_f: free-space ray length for pixels without depth
+  double session_voxel_m = 0.8;       // voxel of the session cloud (0.4 - 0.8)
+  double octree_resolution_m = 0.8;   // rho_o
+  int pixel_stride = 2;               // use every n-th pixel in u and v for the session cloud
+  bool gicp_enabled = true;           // paper step 2: align the session cloud to the prior
+  double gicp_max_correspondence_m = 2.0;
+  double gicp_max_fitness_m = 1.0;
+  double gicp_max_correction_m = 4.0;
+  int threads = 2;                    // worker threads inside one job
+};
+
+// Classification (paper Alg. 1 and 2) on each tile's aggregate; changeable by a reclassify job.
+struct ClassifyConfig {
+  double th_ch_m = 3.2;          // change distance threshold
+  int min_voxel_support = 1;     // aggregated voxels seen by fewer sessions are ignored
+};
+
+struct ServerConfig {
+  HttpConfig http;
+  StorageConfig storage;
+  LogConfig log;
+  IngestConfig ingest;
+  PipelineConfig pipeline;
+  ClassifyConfig classify;
+};
+
+// Throws Error(kIo) if unreadable, Error(kParse) listing every problem (unknown keys, types,
+// out-of-range values) with its key path.
+ServerConfig LoadServerConfig(const std::string& path);
+// Validates ranges of an in-memory config (used by the loader and by tests).
+void ValidateServerConfig(const ServerConfig& config);
+// The effective configuration as YAML text (logged at start-up).
+std::string DumpServerConfig(const ServerConfig& config);
+
+}  // namespace mapdelta::server

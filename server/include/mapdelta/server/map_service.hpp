@@ -1,0 +1,100 @@
+#pragma once
+// MapService: the server's facade. Knows nothing of HTTP: takes parsed JSON and bytes, returns
+// JSON or file bytes, throws ApiError (mapped to a status by the one error table). Tests call
+// it directly; the HTTP adapter only parses requests and formats responses.
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <condition_variable>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "mapdelta/server/api_error.hpp"
+#include "mapdelta/server/config.hpp"
+#include "mapdelta/server/metrics.hpp"
+#include "mapdelta/server/storage.hpp"
+
+namespace mapdelta::server {
+
+using Json = nlohmann::json;
+
+struct FilePayload {
+  Bytes bytes;
+  std::string content_type;
+  int64_t prior_version = 0;
+};
+
+int64_t NowMs();
+
+class MapService {
+ public:
+  MapService(ServerConfig config, std::unique_ptr<Storage> storage);
+  ~MapService();  // stops the job worker
+  MapService(const MapService&) = delete;
+  MapService& operator=(const MapService&) = delete;
+
+  const ServerConfig& config() const { return config_; }
+  Storage& storage() { return *storage_; }
+  Metrics& metrics() { return metrics_; }
+
+  // Throws kUnauthenticated (no/unknown token) or kForbidden (role not allowed).
+  TokenRecord Authorize(std::string_view authorization_header, std::initializer_list<Role> allowed);
+
+  // --- vehicle
+  Json CreateSession(const Json& body);
+  // created is true for a new keyframe, false for an identical retry.
+  Json PutKeyframe(int64_t session_id, int64_t seq, const Json& meta, const Bytes& depth_png,
+                   bool* created);
+  Json CommitSession(int64_t session_id);
+  Json GetSession(int64_t session_id);
+
+  // --- prior map
+  Json ImportPrior(const Bytes& cloud_bytes, const std::string& format, const std::string& note);
+  Json ImportPriorFile(const std::string& path, const std::string& note);
+  Json ListPriorTilesNear(double x, double y, double radius_m, std::optional<int64_t> version);
+  FilePayload GetPriorTile(const std::string& tile, std::optional<int64_t> version,
+                           const std::string& format);
+  Json ListPriorVersions();
+
+  // --- changes
+  Json ListChangedTiles(const std::string& bbox, double min_confidence, int64_t page,
+                        int64_t page_size);
+  // format json -> JSON text; pcd/ply -> cloud of one kind (kind required).
+  FilePayload GetTileChanges(const std::string& tile, const std::string& format,
+                             const std::string& kind, double min_confidence, int64_t min_support);
+  FilePayload GetObservedTile(const std::string& tile);
+
+  // --- admin jobs
+  Json CreateJob(const Json& body);
+  Json ListJobs(int64_t page, int64_t page_size);
+  Json GetJob(int64_t job_id);
+  Json CancelJob(int64_t job_id);
+
+  Json Health();
+  std::string RenderMetrics();
+
+  // Background job worker. Start() resumes jobs a crash left running. Stop() asks the running
+  // job to stop between tiles (it resumes at the next start) and joins.
+  void StartJobWorker();
+  void StopJobWorker();
+  // For tests and the import CLI: runs queued jobs in this thread until none is left.
+  void RunQueuedJobsNow();
+  bool stopping() const { return stopping_; }
+
+ private:
+  void WorkerLoop();
+  bool RunOneJob();
+  int64_t RequirePriorVersion();
+
+  ServerConfig config_;
+  std::unique_ptr<Storage> storage_;
+  Metrics metrics_;
+  std::atomic<bool> stopping_{false};
+  std::thread worker_;
+  std::mutex wake_mutex_;
+  std::condition_variable wake_;
+};
+
+}  // namespace mapdelta::server

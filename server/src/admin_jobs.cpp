@@ -1,0 +1,185 @@
+// Refresh and reclassify jobs, the shared job context, and classification settings.
+#include <unordered_set>
+
+#include "api_json.hpp"
+#include "blob_codec.hpp"
+#include "jobs.hpp"
+#include "mapdelta/common/log.hpp"
+#include "tile_classifier.hpp"
+
+namespace mapdelta::server {
+
+void JobContext::Progress(double fraction, const std::string& message) {
+  storage.UpdateJobProgress(job.id, std::clamp(fraction, 0.0, 1.0), message);
+}
+
+void JobContext::CheckStop() {
+  if (shutting_down()) throw JobInterrupted(false);
+  if (storage.IsCancelRequested(job.id)) throw JobInterrupted(true);
+}
+
+Json ToJson(const ClassifyConfig& c) {
+  return Json{{"th_ch_m", c.th_ch_m}, {"min_voxel_support", c.min_voxel_support}};
+}
+
+ClassifyConfig ClassifyConfigFromJson(const Json& j, const ClassifyConfig& base) {
+  RejectUnknownFields(j, {"th_ch_m", "min_voxel_support"}, "params");
+  ClassifyConfig c = base;
+  if (j.contains("th_ch_m")) c.th_ch_m = NumberField(j, "th_ch_m");
+  if (j.contains("min_voxel_support")) c.min_voxel_support = static_cast<int>(IntField(j, "min_voxel_support"));
+  if (!(c.th_ch_m > 0 && c.th_ch_m <= 50)) {
+    throw ApiError(ApiCode::kInvalidArgument, "params.th_ch_m: must be in (0, 50]");
+  }
+  if (c.min_voxel_support < 1 || c.min_voxel_support > 100000) {
+    throw ApiError(ApiCode::kInvalidArgument, "params.min_voxel_support: must be >= 1");
+  }
+  return c;
+}
+
+ClassifyConfig CurrentClassifyConfig(Storage& storage, const ClassifyConfig& fallback) {
+  if (auto text = storage.GetSetting("classify")) return ClassifyConfigFromJson(Json::parse(*text), fallback);
+  return fallback;
+}
+
+namespace {
+
+// Tiles a refresh/reclassify job addresses: explicit list, bbox, or (reclassify) all.
+std::vector<TileId> JobTiles(Storage& storage, const TileGrid& grid, const Json& params) {
+  std::vector<TileId> tiles;
+  if (params.contains("tiles")) {
+    for (const Json& t : params["tiles"]) tiles.push_back(*TileId::FromString(t.get<std::string>()));
+  } else if (params.contains("bbox")) {
+    const auto& b = params["bbox"];
+    for (const TileId& t : grid.TilesInRect(b[0].get<double>(), b[1].get<double>(),
+                                            b[2].get<double>(), b[3].get<double>())) {
+      tiles.push_back(t);
+    }
+  } else {
+    tiles = storage.ListAggregatedTiles(std::nullopt);
+  }
+  return tiles;
+}
+
+struct PointHash {
+  size_t operator()(const Point& p) const {
+    const auto h = [](float f) { return std::hash<float>()(f); };
+    return h(p.x()) * 73856093u ^ h(p.y()) * 19349663u ^ h(p.z()) * 83492791u;
+  }
+};
+struct PointEq {
+  bool operator()(const Point& a, const Point& b) const { return a == b; }
+};
+
+}  // namespace
+
+Json RunRefreshJob(JobContext& ctx) {
+  const Json params = Json::parse(ctx.job.params_json);
+  const double min_confidence = params.value("min_confidence", 0.5);
+  const int64_t min_support = params.value("min_support", int64_t{1});
+  const TileGrid grid(ctx.config.storage.tile_size_m);
+  const std::optional<int64_t> latest = ctx.storage.LatestPriorVersion();
+  if (!latest) throw ApiError(ApiCode::kNoPrior, "no prior map to refresh");
+  const ClassifyConfig cc = CurrentClassifyConfig(ctx.storage, ctx.config.classify);
+  ObservedCache cache(ctx.storage);
+
+  // 1. Compute every tile's new points in memory; nothing is written until step 2.
+  std::vector<RefreshTileWrite> writes;
+  Json tiles_report = Json::array();
+  const std::vector<TileId> tiles = JobTiles(ctx.storage, grid, params);
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    ctx.CheckStop();
+    const TileId& tile = tiles[i];
+    auto record = ctx.storage.GetTileChanges(tile);
+    if (!record) continue;
+    std::vector<ChangePoint> changes = DecodeChanges(record->changes);
+    if (record->prior_version != *latest) {  // classified against an older prior: redo
+      changes = ClassifyTile(ctx.storage, grid, tile, *latest, cc,
+                             ctx.config.pipeline.octree_resolution_m, cache).changes;
+    }
+    std::unordered_set<Point, PointHash, PointEq> removed;
+    PointCloud added;
+    for (const ChangePoint& c : changes) {
+      if (c.confidence < min_confidence || static_cast<int64_t>(c.supported_by.size()) < min_support) continue;
+      if (c.kind == ChangeKind::kRemoved) removed.insert(c.position);
+      else added.push_back(c.position);
+    }
+    if (removed.empty() && added.empty()) continue;
+    PointCloud points;
+    int64_t from_version = 0;
+    if (auto prior = ctx.storage.GetPriorTile(tile, *latest)) {
+      from_version = prior->version;
+      for (const Point& p : DecodePoints(prior->points)) {
+        if (!removed.count(p)) points.push_back(p);
+      }
+    }
+    RefreshTileWrite w;
+    w.tile = tile;
+    w.from_version = from_version;
+    w.removed = static_cast<int64_t>(removed.size());
+    w.added = static_cast<int64_t>(added.size());
+    points.insert(points.end(), added.begin(), added.end());
+    w.point_count = static_cast<int64_t>(points.size());
+    w.points = EncodePoints(points);
+    tiles_report.push_back({{"tile", tile.ToString()}, {"added", w.added}, {"removed", w.removed}});
+    writes.push_back(std::move(w));
+    ctx.Progress(0.8 * (i + 1) / tiles.size(), "merged tile " + tile.ToString());
+  }
+  if (writes.empty()) {
+    return Json{{"prior_version", *latest}, {"tiles", tiles_report},
+                {"note", "no change above the thresholds; prior unchanged"}};
+  }
+  // 2. One transaction: version N+1, its tiles, aggregation reset, log, job succeeded.
+  PriorVersionRecord meta;
+  meta.note = "refresh job " + std::to_string(ctx.job.id);
+  Json result{{"prior_version", *latest + 1}, {"parent_version", *latest}, {"tiles", tiles_report},
+              {"min_confidence", min_confidence}, {"min_support", min_support}};
+  const int64_t version = ctx.storage.ApplyRefresh(ctx.job.id, meta, writes, result.dump(), NowMs());
+  result["prior_version"] = version;
+
+  // 3. Neighbours of refreshed tiles saw the old prior in their margins: reclassify them.
+  std::set<TileId> neighbours;
+  for (const auto& w : writes) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) neighbours.insert(TileId(w.tile.ix() + dx, w.tile.iy() + dy));
+    }
+  }
+  ObservedCache fresh_cache(ctx.storage);
+  for (const TileId& t : neighbours) {
+    if (!ctx.storage.GetTileState(t)) continue;
+    TileClassification c = ClassifyTile(ctx.storage, grid, t, version, cc,
+                                        ctx.config.pipeline.octree_resolution_m, fresh_cache);
+    c.record.updated_ms = NowMs();
+    ctx.storage.ApplyTileChanges(0, c.record);
+  }
+  return result;
+}
+
+Json RunReclassifyJob(JobContext& ctx) {
+  const Json params = Json::parse(ctx.job.params_json);
+  const ClassifyConfig cc = ClassifyConfigFromJson(params.value("params", Json::object()),
+                                                   CurrentClassifyConfig(ctx.storage, ctx.config.classify));
+  // The new thresholds become current first, so that later commits use them too.
+  ctx.storage.PutSetting("classify", ToJson(cc).dump());
+  const TileGrid grid(ctx.config.storage.tile_size_m);
+  const int64_t version = ctx.storage.LatestPriorVersion().value_or(0);
+  const std::set<std::string> done = ctx.storage.JobTilesDone(ctx.job.id);
+  ObservedCache cache(ctx.storage);
+  const std::vector<TileId> tiles = JobTiles(ctx.storage, grid, params);
+  int64_t new_points = 0, removed_points = 0, count = 0;
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    ctx.CheckStop();
+    if (done.count(tiles[i].ToString()) || !ctx.storage.GetTileState(tiles[i])) continue;
+    TileClassification c = ClassifyTile(ctx.storage, grid, tiles[i], version, cc,
+                                        ctx.config.pipeline.octree_resolution_m, cache);
+    c.record.updated_ms = NowMs();
+    ctx.storage.ApplyTileChanges(ctx.job.id, c.record);
+    new_points += c.record.new_count;
+    removed_points += c.record.removed_count;
+    ++count;
+    ctx.Progress(static_cast<double>(i + 1) / tiles.size(), "reclassified " + tiles[i].ToString());
+  }
+  return Json{{"params", ToJson(cc)}, {"prior_version", version}, {"tiles_classified", count},
+              {"new_points", new_points}, {"removed_points", removed_points}};
+}
+
+}  // namespace mapdelta::server

@@ -1,0 +1,50 @@
+// HTTP adapter: server life cycle and the error handler for routes httplib itself rejects.
+#include "mapdelta/server/http_server.hpp"
+
+#include "http_routes.hpp"
+#include "mapdelta/common/error.hpp"
+#include "mapdelta/common/log.hpp"
+
+#include <httplib.h>  // last: its <resolv.h> defines macros that break Eigen
+
+namespace mapdelta::server {
+
+struct HttpServer::Impl {
+  explicit Impl(MapService& s) : service(s) {}
+  MapService& service;
+  httplib::Server server;
+};
+
+HttpServer::HttpServer(MapService& service) : impl_(std::make_unique<Impl>(service)) {
+  const HttpConfig& c = service.config().http;
+  httplib::Server& s = impl_->server;
+  const int threads = c.threads;
+  s.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
+  // The largest body any route accepts; routes check their own, smaller limits.
+  s.set_payload_max_length(static_cast<size_t>(
+      std::max({c.max_body_bytes, c.max_keyframe_bytes, c.max_prior_bytes})));
+  s.set_read_timeout(c.read_timeout_s, 0);
+  s.set_write_timeout(c.write_timeout_s, 0);
+  s.set_keep_alive_max_count(1000);
+  RegisterRoutes(s, service);
+}
+
+HttpServer::~HttpServer() { Stop(); }
+
+int HttpServer::Bind(const std::string& address, int port) {
+  int bound = port;
+  if (port == 0) bound = impl_->server.bind_to_any_port(address);
+  else if (!impl_->server.bind_to_port(address, port)) bound = -1;
+  if (bound <= 0) {
+    throw Error(ErrorCode::kIo, "cannot listen on " + address + ":" + std::to_string(port));
+  }
+  return bound;
+}
+
+void HttpServer::Run() { impl_->server.listen_after_bind(); }
+
+void HttpServer::Stop() {
+  if (impl_->server.is_running()) impl_->server.stop();
+}
+
+}  // namespace mapdelta::server

@@ -1,0 +1,45 @@
+#pragma once
+// Background jobs (commit, refresh, reclassify). Each runs in the job worker thread, writes
+// each tile in its own transaction, records finished tiles in job_tiles, and on resume after
+// a crash skips what is done and recomputes the rest (every step is a pure function of the
+// stored inputs, so recomputation gives the same answer).
+#include <functional>
+#include <stdexcept>
+#include <string>
+
+#include "mapdelta/server/config.hpp"
+#include "mapdelta/server/map_service.hpp"
+#include "mapdelta/server/metrics.hpp"
+#include "mapdelta/server/storage.hpp"
+
+namespace mapdelta::server {
+
+// Thrown by JobContext::CheckStop: the job stops between tiles, leaving only whole tiles.
+struct JobInterrupted : std::runtime_error {
+  explicit JobInterrupted(bool cancelled)
+      : std::runtime_error(cancelled ? "cancelled" : "server shutting down"), cancelled(cancelled) {}
+  bool cancelled;
+};
+
+struct JobContext {
+  Storage& storage;
+  const ServerConfig& config;
+  Metrics& metrics;
+  JobRecord job;
+  std::function<bool()> shutting_down;
+
+  void Progress(double fraction, const std::string& message);
+  void CheckStop();  // throws JobInterrupted on shutdown or cancel request
+};
+
+// Current classification parameters (settings table, else the config's).
+ClassifyConfig CurrentClassifyConfig(Storage& storage, const ClassifyConfig& fallback);
+Json ToJson(const ClassifyConfig& c);
+// Throws ApiError(kInvalidArgument) naming the bad field.
+ClassifyConfig ClassifyConfigFromJson(const Json& j, const ClassifyConfig& base);
+
+Json RunCommitJob(JobContext& ctx);      // returns the result JSON
+Json RunRefreshJob(JobContext& ctx);     // finishes the job itself (atomically with the version)
+Json RunReclassifyJob(JobContext& ctx);
+
+}  // namespace mapdelta::server

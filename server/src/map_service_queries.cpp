@@ -1,0 +1,365 @@
+// MapService: prior map import and queries, change queries, admin jobs.
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "api_json.hpp"
+#include "blob_codec.hpp"
+#include "jobs.hpp"
+#include "mapdelta/common/cloud_io.hpp"
+#include "mapdelta/common/error.hpp"
+#include "mapdelta/common/log.hpp"
+#include "mapdelta/common/observed_area.hpp"
+#include "mapdelta/server/map_service.hpp"
+#include "tile_classifier.hpp"
+
+namespace mapdelta::server {
+namespace {
+
+// A temporary file removed on scope exit (cloud and octree IO in common is file-based).
+class TempFile {
+ public:
+  explicit TempFile(const std::string& ext) {
+    static std::atomic<int> counter{0};
+    path_ = (std::filesystem::temp_directory_path() /
+             ("mapdelta-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ext))
+                .string();
+  }
+  ~TempFile() {
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+  }
+  const std::string& path() const { return path_; }
+  Bytes Read() const {
+    std::ifstream in(path_, std::ios::binary);
+    if (!in) throw Error(ErrorCode::kIo, path_ + ": cannot read back");
+    return Bytes(std::istreambuf_iterator<char>(in), {});
+  }
+  void Write(const Bytes& bytes) const {
+    std::ofstream out(path_, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    if (!out) throw Error(ErrorCode::kIo, path_ + ": cannot write");
+  }
+
+ private:
+  std::string path_;
+};
+
+FilePayload CloudPayload(const PointCloud& cloud, const std::string& format) {
+  if (format != "pcd" && format != "ply") {
+    throw ApiError(ApiCode::kInvalidArgument, "format must be pcd or ply");
+  }
+  TempFile f("." + format);
+  WriteCloud(f.path(), cloud);
+  FilePayload p;
+  p.bytes = f.Read();
+  p.content_type = format == "pcd" ? "application/x-pcd" : "application/x-ply";
+  return p;
+}
+
+TileId ParseTile(const std::string& text) {
+  auto tile = TileId::FromString(text);
+  if (!tile) throw ApiError(ApiCode::kInvalidArgument, "tile id '" + text + "' is not of the form ix_iy");
+  return *tile;
+}
+
+// Tile index range of a metric rectangle, as a Rect of indices (what storage filters on).
+Rect TileRange(const TileGrid& grid, double min_x, double min_y, double max_x, double max_y) {
+  const TileId a = grid.TileOf(min_x, min_y), b = grid.TileOf(max_x, max_y);
+  return Rect{double(a.ix()), double(a.iy()), double(b.ix()), double(b.iy())};
+}
+
+std::vector<double> ParseBbox(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const double d = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !std::isfinite(d)) {
+      throw ApiError(ApiCode::kInvalidArgument, "bbox: '" + item + "' is not a number");
+    }
+    v.push_back(d);
+  }
+  if (v.size() != 4 || v[0] > v[2] || v[1] > v[3]) {
+    throw ApiError(ApiCode::kInvalidArgument, "bbox must be min_x,min_y,max_x,max_y with min <= max");
+  }
+  if (v[2] - v[0] > 1e6 || v[3] - v[1] > 1e6) throw ApiError(ApiCode::kInvalidArgument, "bbox larger than 1000 km");
+  return v;
+}
+
+void CheckPage(int64_t page, int64_t page_size) {
+  if (page < 1) throw ApiError(ApiCode::kInvalidArgument, "page must be >= 1");
+  if (page_size < 1 || page_size > 1000) throw ApiError(ApiCode::kInvalidArgument, "page_size must be in [1, 1000]");
+}
+
+Json JobToJson(const JobRecord& j) {
+  Json out{{"job_id", j.id},          {"type", j.type},
+           {"state", j.state},        {"progress", j.progress},
+           {"message", j.message},    {"params", Json::parse(j.params_json)},
+           {"attempts", j.attempts},  {"cancel_requested", j.cancel_requested},
+           {"created_at", IsoTime(j.created_ms)}};
+  if (j.started_ms) out["started_at"] = IsoTime(*j.started_ms);
+  if (j.finished_ms) out["finished_at"] = IsoTime(*j.finished_ms);
+  if (j.result_json) out["result"] = Json::parse(*j.result_json);
+  return out;
+}
+
+}  // namespace
+
+int64_t MapService::RequirePriorVersion() {
+  auto v = storage_->LatestPriorVersion();
+  if (!v) throw ApiError(ApiCode::kNoPrior, "no prior map has been imported yet");
+  return *v;
+}
+
+// ---------------------------------------------------------------- prior map
+
+Json MapService::ImportPriorFile(const std::string& path, const std::string& note) {
+  PointCloud cloud;
+  try {
+    cloud = ReadCloud(path);
+  } catch (const Error& e) {
+    throw ApiError(ApiCode::kInvalidArgument, std::string("prior cloud: ") + e.what());
+  }
+  const size_t dropped = RemoveNonFinite(&cloud);
+  if (cloud.empty()) throw ApiError(ApiCode::kInvalidArgument, "prior cloud has no finite points");
+  const TileGrid grid(config_.storage.tile_size_m);
+  std::vector<PriorTileRecord> tiles;
+  for (const auto& [tile, points] : grid.Split(cloud)) {
+    PriorTileRecord r;
+    r.tile = tile;
+    r.point_count = static_cast<int64_t>(points.size());
+    r.points = EncodePoints(points);
+    tiles.push_back(std::move(r));
+  }
+  PriorVersionRecord meta;
+  meta.created_ms = NowMs();
+  meta.source = "import";
+  meta.note = note;
+  const int64_t version = storage_->CreatePriorVersion(meta, tiles, /*replace_all=*/true);
+  MD_LOG(kInfo, "prior version " << version << " imported: " << cloud.size() << " points in "
+                                 << tiles.size() << " tiles (" << dropped << " non-finite dropped)");
+  return Json{{"prior_version", version}, {"points", cloud.size()}, {"tiles", tiles.size()},
+              {"dropped_non_finite", dropped}, {"tile_size_m", config_.storage.tile_size_m}};
+}
+
+Json MapService::ImportPrior(const Bytes& bytes, const std::string& format, const std::string& note) {
+  if (format != "pcd" && format != "ply") throw ApiError(ApiCode::kInvalidArgument, "format must be pcd or ply");
+  if (bytes.empty()) throw ApiError(ApiCode::kInvalidArgument, "body is empty");
+  TempFile f("." + format);
+  f.Write(bytes);
+  return ImportPriorFile(f.path(), note);
+}
+
+Json MapService::ListPriorTilesNear(double x, double y, double radius_m, std::optional<int64_t> version) {
+  if (!std::isfinite(x) || !std::isfinite(y)) throw ApiError(ApiCode::kInvalidArgument, "x and y must be finite");
+  if (!(radius_m >= 0 && radius_m <= 10000)) throw ApiError(ApiCode::kInvalidArgument, "radius must be in [0, 10000] m");
+  const int64_t latest = RequirePriorVersion();
+  const int64_t v = version.value_or(latest);
+  if (v < 1 || v > latest) throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
+  const TileGrid grid(config_.storage.tile_size_m);
+  Json tiles = Json::array();
+  for (const PriorTileRecord& t :
+       storage_->ListPriorTiles(TileRange(grid, x - radius_m, y - radius_m, x + radius_m, y + radius_m), v)) {
+    const AxisAlignedBox b = grid.Bounds(t.tile);
+    tiles.push_back({{"tile", t.tile.ToString()},
+                     {"points", t.point_count},
+                     {"tile_version", t.version},
+                     {"bounds", {b.min.x(), b.min.y(), b.max.x(), b.max.y()}},
+                     {"url", "/v1/prior/tiles/" + t.tile.ToString() + "?version=" + std::to_string(v)}});
+  }
+  return Json{{"prior_version", v}, {"tile_size_m", grid.tile_size_m()}, {"tiles", tiles}};
+}
+
+FilePayload MapService::GetPriorTile(const std::string& tile_text, std::optional<int64_t> version,
+                                     const std::string& format) {
+  const TileId tile = ParseTile(tile_text);
+  const int64_t latest = RequirePriorVersion();
+  const int64_t v = version.value_or(latest);
+  if (v < 1 || v > latest) throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
+  auto record = storage_->GetPriorTile(tile, v);
+  if (!record) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no prior points at version " + std::to_string(v));
+  FilePayload p = CloudPayload(DecodePoints(record->points), format);
+  p.prior_version = v;
+  return p;
+}
+
+Json MapService::ListPriorVersions() {
+  Json out = Json::array();
+  for (const auto& v : storage_->ListPriorVersions()) {
+    Json j{{"version", v.version}, {"created_at", IsoTime(v.created_ms)}, {"source", v.source}, {"note", v.note}};
+    if (v.parent) j["parent"] = *v.parent;
+    if (v.job_id) j["job_id"] = *v.job_id;
+    out.push_back(j);
+  }
+  return Json{{"versions", out}};
+}
+
+// ---------------------------------------------------------------- changes
+
+Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence, int64_t page,
+                                  int64_t page_size) {
+  const std::vector<double> b = ParseBbox(bbox);
+  CheckPage(page, page_size);
+  if (!(min_confidence >= 0 && min_confidence <= 1)) throw ApiError(ApiCode::kInvalidArgument, "min_confidence must be in [0, 1]");
+  const TileGrid grid(config_.storage.tile_size_m);
+  int64_t total = 0;
+  Json tiles = Json::array();
+  for (const auto& c : storage_->ListChangedTiles(TileRange(grid, b[0], b[1], b[2], b[3]), min_confidence,
+                                                  page_size, (page - 1) * page_size, &total)) {
+    const AxisAlignedBox bounds = grid.Bounds(c.tile);
+    tiles.push_back({{"tile", c.tile.ToString()},
+                     {"new_count", c.new_count},
+                     {"removed_count", c.removed_count},
+                     {"max_confidence", c.max_confidence},
+                     {"prior_version", c.prior_version},
+                     {"bounds", {bounds.min.x(), bounds.min.y(), bounds.max.x(), bounds.max.y()}},
+                     {"updated_at", IsoTime(c.updated_ms)},
+                     {"params", Json::parse(c.params_json)}});
+  }
+  return Json{{"prior_version", storage_->LatestPriorVersion().value_or(0)},
+              {"page", page}, {"page_size", page_size}, {"total", total}, {"tiles", tiles}};
+}
+
+FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::string& format,
+                                       const std::string& kind, double min_confidence, int64_t min_support) {
+  const TileId tile = ParseTile(tile_text);
+  if (kind != "" && kind != "new" && kind != "removed") throw ApiError(ApiCode::kInvalidArgument, "kind must be new or removed");
+  if ((format == "pcd" || format == "ply") && kind.empty()) {
+    throw ApiError(ApiCode::kInvalidArgument, "format " + format + " needs kind=new or kind=removed");
+  }
+  if (format != "json" && format != "pcd" && format != "ply") throw ApiError(ApiCode::kInvalidArgument, "format must be json, pcd or ply");
+  if (!(min_confidence >= 0 && min_confidence <= 1)) throw ApiError(ApiCode::kInvalidArgument, "min_confidence must be in [0, 1]");
+  if (min_support < 0) throw ApiError(ApiCode::kInvalidArgument, "min_support must be >= 0");
+  auto record = storage_->GetTileChanges(tile);
+  if (!record) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no classification");
+  const std::vector<ChangePoint> changes = DecodeChanges(record->changes);
+  auto keep = [&](const ChangePoint& c) {
+    return c.confidence >= min_confidence && static_cast<int64_t>(c.supported_by.size()) >= min_support &&
+           (kind.empty() || (kind == "new") == (c.kind == ChangeKind::kNew));
+  };
+  if (format != "json") {
+    PointCloud cloud;
+    for (const auto& c : changes) {
+      if (keep(c)) cloud.push_back(c.position);
+    }
+    FilePayload p = CloudPayload(cloud, format);
+    p.prior_version = record->prior_version;
+    return p;
+  }
+  Json fresh = Json::array(), gone = Json::array();
+  for (const auto& c : changes) {
+    if (!keep(c)) continue;
+    Json j{{"p", {c.position.x(), c.position.y(), c.position.z()}},
+           {"confidence", c.confidence},
+           {"observed_by", c.observed_by},
+           {"supported_by", c.supported_by}};
+    (c.kind == ChangeKind::kNew ? fresh : gone).push_back(std::move(j));
+  }
+  Json j{{"tile", tile_text},          {"prior_version", record->prior_version},
+         {"updated_at", IsoTime(record->updated_ms)}, {"params", Json::parse(record->params_json)},
+         {"confidence_formula", "(supported + 1) / (observed + 2)"},
+         {"new", fresh},               {"removed", gone}};
+  FilePayload p;
+  const std::string text = j.dump();
+  p.bytes.assign(text.begin(), text.end());
+  p.content_type = "application/json";
+  p.prior_version = record->prior_version;
+  return p;
+}
+
+FilePayload MapService::GetObservedTile(const std::string& tile_text) {
+  const TileId tile = ParseTile(tile_text);
+  auto state = storage_->GetTileState(tile);
+  if (!state || state->sessions.empty()) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no observations");
+  ObservedCache cache(*storage_);
+  const ObservedArea& merged = cache.Merged(state->sessions, config_.pipeline.octree_resolution_m);
+  TempFile f(".bt");
+  merged.Save(f.path());
+  FilePayload p;
+  p.bytes = f.Read();
+  p.content_type = "application/octet-stream";
+  p.prior_version = storage_->LatestPriorVersion().value_or(0);
+  return p;
+}
+
+// ---------------------------------------------------------------- admin jobs
+
+Json MapService::CreateJob(const Json& body) {
+  RejectUnknownFields(body, {"type", "tiles", "bbox", "min_confidence", "min_support", "params"}, "body");
+  const std::string type = StringField(body, "type");
+  Json params = Json::object();
+  if (body.contains("tiles") && body.contains("bbox")) throw ApiError(ApiCode::kInvalidArgument, "give tiles or bbox, not both");
+  if (body.contains("tiles")) {
+    const Json& t = body["tiles"];
+    if (!t.is_array() || t.empty() || t.size() > 10000) throw ApiError(ApiCode::kInvalidArgument, "field 'tiles': expected 1..10000 tile ids");
+    for (const Json& e : t) {
+      if (!e.is_string()) throw ApiError(ApiCode::kInvalidArgument, "field 'tiles': expected strings");
+      ParseTile(e.get<std::string>());
+    }
+    params["tiles"] = t;
+  }
+  if (body.contains("bbox")) {
+    const Json& b = body["bbox"];
+    if (!b.is_array() || b.size() != 4) throw ApiError(ApiCode::kInvalidArgument, "field 'bbox': expected [min_x, min_y, max_x, max_y]");
+    std::string text;
+    for (const Json& e : b) {
+      if (!e.is_number()) throw ApiError(ApiCode::kInvalidArgument, "field 'bbox': expected numbers");
+      text += (text.empty() ? "" : ",") + std::to_string(e.get<double>());
+    }
+    ParseBbox(text);
+    params["bbox"] = b;
+  }
+  if (type == "refresh") {
+    if (!params.contains("tiles") && !params.contains("bbox")) throw ApiError(ApiCode::kInvalidArgument, "refresh needs 'tiles' or 'bbox'");
+    if (body.contains("params")) throw ApiError(ApiCode::kInvalidArgument, "refresh takes no 'params'");
+    params["min_confidence"] = body.contains("min_confidence") ? NumberField(body, "min_confidence") : 0.5;
+    params["min_support"] = body.contains("min_support") ? IntField(body, "min_support") : 1;
+    if (!(params["min_confidence"].get<double>() >= 0 && params["min_confidence"].get<double>() <= 1)) {
+      throw ApiError(ApiCode::kInvalidArgument, "field 'min_confidence': must be in [0, 1]");
+    }
+    if (params["min_support"].get<int64_t>() < 0) throw ApiError(ApiCode::kInvalidArgument, "field 'min_support': must be >= 0");
+    RequirePriorVersion();
+  } else if (type == "reclassify") {
+    if (body.contains("min_confidence") || body.contains("min_support")) {
+      throw ApiError(ApiCode::kInvalidArgument, "reclassify takes 'params', not min_confidence/min_support");
+    }
+    const Json p = body.value("params", Json::object());
+    ClassifyConfigFromJson(p, config_.classify);  // validate now, not in the job
+    params["params"] = p;
+  } else {
+    throw ApiError(ApiCode::kInvalidArgument, "field 'type': must be refresh or reclassify");
+  }
+  const int64_t id = storage_->CreateJob(type, params.dump(), NowMs());
+  wake_.notify_all();
+  MD_LOG(kInfo, "job " << id << " (" << type << ") queued: " << params.dump());
+  return GetJob(id);
+}
+
+Json MapService::ListJobs(int64_t page, int64_t page_size) {
+  CheckPage(page, page_size);
+  Json jobs = Json::array();
+  for (const auto& j : storage_->ListJobs(page_size, (page - 1) * page_size)) jobs.push_back(JobToJson(j));
+  return Json{{"page", page}, {"page_size", page_size}, {"jobs", jobs}};
+}
+
+Json MapService::GetJob(int64_t job_id) {
+  auto j = storage_->GetJob(job_id);
+  if (!j) throw ApiError(ApiCode::kNotFound, "job " + std::to_string(job_id) + " does not exist");
+  return JobToJson(*j);
+}
+
+Json MapService::CancelJob(int64_t job_id) {
+  auto state = storage_->RequestCancel(job_id, NowMs());
+  if (!state) throw ApiError(ApiCode::kNotFound, "job " + std::to_string(job_id) + " does not exist");
+  if (*state != "cancelled" && *state != "running") {
+    throw ApiError(ApiCode::kJobNotCancellable, "job is " + *state + "; only queued or running jobs can be cancelled");
+  }
+  return GetJob(job_id);
+}
+
+}  // namespace mapdelta::server

@@ -1,0 +1,61 @@
+#include "mapdelta/server/metrics.hpp"
+
+#include <sstream>
+
+namespace mapdelta::server {
+
+void Metrics::CountRequest(const std::string& route, int status, double seconds) {
+  std::lock_guard lock(mutex_);
+  RouteStats& s = requests_[{route, status}];
+  s.count += 1;
+  s.seconds += seconds;
+}
+
+std::string Metrics::Render(const std::vector<std::pair<std::string, int64_t>>& jobs_by_state) const {
+  std::ostringstream os;
+  os << "# HELP mapdelta_http_requests_total HTTP requests by route pattern and status.\n"
+     << "# TYPE mapdelta_http_requests_total counter\n";
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& [key, s] : requests_) {
+      os << "mapdelta_http_requests_total{route=\"" << key.first << "\",status=\"" << key.second
+         << "\"} " << s.count << "\n";
+    }
+    os << "# HELP mapdelta_http_request_seconds_total Time spent serving requests.\n"
+       << "# TYPE mapdelta_http_request_seconds_total counter\n";
+    for (const auto& [key, s] : requests_) {
+      os << "mapdelta_http_request_seconds_total{route=\"" << key.first << "\",status=\""
+         << key.second << "\"} " << s.seconds << "\n";
+    }
+  }
+  os << "# HELP mapdelta_keyframes_ingested_total Keyframes stored (not counting identical retries).\n"
+     << "# TYPE mapdelta_keyframes_ingested_total counter\n"
+     << "mapdelta_keyframes_ingested_total " << keyframes_ingested.load() << "\n"
+     << "# HELP mapdelta_keyframe_bytes_total Depth PNG bytes stored.\n"
+     << "# TYPE mapdelta_keyframe_bytes_total counter\n"
+     << "mapdelta_keyframe_bytes_total " << keyframe_bytes.load() << "\n"
+     << "# HELP mapdelta_keyframes_rejected_total Keyframe uploads rejected by validation.\n"
+     << "# TYPE mapdelta_keyframes_rejected_total counter\n"
+     << "mapdelta_keyframes_rejected_total " << keyframes_rejected.load() << "\n"
+     << "# HELP mapdelta_jobs_finished_total Jobs finished by this process.\n"
+     << "# TYPE mapdelta_jobs_finished_total counter\n"
+     << "mapdelta_jobs_finished_total " << jobs_finished.load() << "\n"
+     << "# HELP mapdelta_job_seconds_total Wall time spent in jobs by this process.\n"
+     << "# TYPE mapdelta_job_seconds_total counter\n"
+     << "mapdelta_job_seconds_total " << job_seconds_ms.load() / 1000.0 << "\n"
+     << "# HELP mapdelta_job_tiles_applied_total Tile updates committed by jobs.\n"
+     << "# TYPE mapdelta_job_tiles_applied_total counter\n"
+     << "mapdelta_job_tiles_applied_total " << job_tiles_applied.load() << "\n"
+     << "# HELP mapdelta_jobs Jobs in the database by state.\n"
+     << "# TYPE mapdelta_jobs gauge\n";
+  for (const char* state : {"queued", "running", "succeeded", "failed", "cancelled"}) {
+    int64_t n = 0;
+    for (const auto& [s, count] : jobs_by_state) {
+      if (s == state) n = count;
+    }
+    os << "mapdelta_jobs{state=\"" << state << "\"} " << n << "\n";
+  }
+  return os.str();
+}
+
+}  // namespace mapdelta::server

@@ -1,0 +1,16 @@
+#pragma once
+// The numbered SQL files of migrations/, embedded at build time (CMake generates the .cpp).
+#include <string_view>
+#include <vector>
+
+namespace mapdelta::server {
+
+struct Migration {
+  int version;
+  std::string_view name;
+  std::string_view sql;
+};
+
+const std::vector<Migration>& EmbeddedMigrations();  // sorted by version
+
+}  // namespace mapdelta::server
