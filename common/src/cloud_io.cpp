@@ -51,8 +51,15 @@ void WriteCloud(const std::string& path, const PointCloud& cloud) {
   pcl_cloud.height = 1;
   int status = -1;
   if (ext == ".pcd") {
-    status = cloud.empty() ? pcl::io::savePCDFileASCII(path, pcl_cloud)
-                           : pcl::io::savePCDFileBinary(path, pcl_cloud);
+    if (cloud.empty()) {  // written here: PCL prints a warning to the console for empty clouds
+      std::ofstream out(path);
+      out << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\n"
+             "TYPE F F F\nCOUNT 1 1 1\nWIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\n"
+             "DATA ascii\n";
+      status = out ? 0 : -1;
+    } else {
+      status = pcl::io::savePCDFileBinary(path, pcl_cloud);
+    }
   } else if (ext == ".ply") {
     status = pcl::io::savePLYFileBinary(path, pcl_cloud);
   } else {

@@ -1,6 +1,7 @@
 #include "box_scene.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 namespace mapdelta::testing {
@@ -77,6 +78,31 @@ SE3 LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
   T.linear().col(2) = z;
   T.translation() = eye;
   return T;
+}
+
+BoxWorld MakeBoxWorld() {
+  const Box ground{{-40, -40, -1}, {40, 40, 0}};
+  const Box a{{-19, -19, 0}, {-11, -11, 10}}, b{{11, -19, 0}, {19, -11, 12}};
+  const Box c{{-18, 10, 0}, {-12, 20, 8}}, d{{11, 11, 0}, {19, 19, 10}};
+  BoxWorld world;
+  world.original = {ground, a, b, c};
+  world.changed = {ground, a, c, d};
+  PinholeCamera camera;
+  camera.width = 200;
+  camera.height = 150;
+  camera.fx = camera.fy = 125;
+  camera.cx = 100;
+  camera.cy = 75;
+  world.keyframes.camera = camera;
+  for (int k = 0; k < 24; ++k) {
+    const double angle = 2 * M_PI * k / 24;
+    Keyframe keyframe;
+    keyframe.t_ns = 1'000'000'000LL * (k + 1);
+    keyframe.T_map_cam = LookAt({30 * std::cos(angle), 30 * std::sin(angle), 25}, {0, 0, 0});
+    keyframe.depth = RenderDepth(camera, keyframe.T_map_cam, world.changed);
+    world.keyframes.keyframes.push_back(keyframe);
+  }
+  return world;
 }
 
 }  // namespace mapdelta::testing

@@ -94,42 +94,8 @@ TEST(Metrics, RadiusOutlierFilterCountsOtherPoints) {
   EXPECT_EQ(RadiusOutlierFilter(cloud, 4.0, 17).size(), 0u);
 }
 
-struct BoxWorld {
-  std::vector<Box> original, changed;
-  KeyframeFolder keyframes;
-};
-
-// Ground 80 x 80 m; A and C stay, B is removed, D is added; 24 keyframes on a circle of
-// radius 30 m at 25 m height looking at the centre, depth rendered from the changed scene.
-// (Steep views on purpose: grazing rays near th_d mark ground voxels observed where the
-// global cloud is sparse, the method's known false-removed pattern, which is not under test.)
-BoxWorld MakeBoxWorld() {
-  const Box ground{{-40, -40, -1}, {40, 40, 0}};
-  const Box a{{-19, -19, 0}, {-11, -11, 10}}, b{{11, -19, 0}, {19, -11, 12}};
-  const Box c{{-18, 10, 0}, {-12, 20, 8}}, d{{11, 11, 0}, {19, 19, 10}};
-  BoxWorld world;
-  world.original = {ground, a, b, c};
-  world.changed = {ground, a, c, d};
-  PinholeCamera camera;
-  camera.width = 200;
-  camera.height = 150;
-  camera.fx = camera.fy = 125;
-  camera.cx = 100;
-  camera.cy = 75;
-  world.keyframes.camera = camera;
-  for (int k = 0; k < 24; ++k) {
-    const double angle = 2 * M_PI * k / 24;
-    Keyframe keyframe;
-    keyframe.t_ns = 1'000'000'000LL * (k + 1);
-    keyframe.T_map_cam = testing::LookAt({30 * std::cos(angle), 30 * std::sin(angle), 25}, {0, 0, 0});
-    keyframe.depth = testing::RenderDepth(camera, keyframe.T_map_cam, world.changed);
-    world.keyframes.keyframes.push_back(keyframe);
-  }
-  return world;
-}
-
 TEST(ChangeDetection, BoxWorldFindsRemovedAndAddedBuildings) {
-  const BoxWorld world = MakeBoxWorld();
+  const testing::BoxWorld world = testing::MakeBoxWorld();
   const PointCloud original = testing::SampleBoxSurfaces(world.original, 0.3);
   const PointCloud changed = testing::SampleBoxSurfaces(world.changed, 0.3);
   const ChangeDetectionParams params;  // paper defaults: th_ch 3.2, rho_o 0.8, voxel 0.8
@@ -164,7 +130,7 @@ TEST(ChangeDetection, BoxWorldFindsRemovedAndAddedBuildings) {
 }
 
 TEST(ChangeDetection, AlignmentCallbackCorrectsShiftedPoses) {
-  BoxWorld world = MakeBoxWorld();
+  testing::BoxWorld world = testing::MakeBoxWorld();
   SE3 T_drift = SE3::Identity();
   T_drift.translation() = Eigen::Vector3d(5.0, -4.0, 0.5);  // larger than th_ch: must be undone
   for (auto& keyframe : world.keyframes.keyframes) keyframe.T_map_cam = T_drift * keyframe.T_map_cam;

@@ -1,0 +1,20 @@
+#pragma once
+// The tools' commands as library functions: main() only converts argv and exceptions.
+// Each returns the process exit code, writes results to `out` and progress to the log.
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace mapdelta::tools {
+
+extern const char* const kEvalUsage;
+extern const char* const kDetectUsage;
+
+// mapdelta-eval ate REF EST [--align se3|sim3|none] [--max-dt S] [--json FILE]
+int RunEvalAte(const std::vector<std::string>& args, std::ostream& out);
+// mapdelta-eval changes --original .. --changed .. --new .. --removed .. --global .. --observed ..
+int RunEvalChanges(const std::vector<std::string>& args, std::ostream& out);
+// mapdelta-detect --prior CLOUD --keyframes DIR --out DIR [...]
+int RunDetect(const std::vector<std::string>& args, std::ostream& out);
+
+}  // namespace mapdelta::tools
