@@ -91,10 +91,15 @@ bool Marginalizer::Marginalize() {
 
   // 3. Schur complement onto the kept coordinates.
   const int k = n - m;
-  const Eigen::MatrixXd Hdd_inv = PseudoInverse(H.topLeftCorner(m, m));
-  const Eigen::MatrixXd Hkd = H.bottomLeftCorner(k, m);
-  H_ = H.bottomRightCorner(k, k) - Hkd * Hdd_inv * Hkd.transpose();
-  b_ = g.tail(k) - Hkd * Hdd_inv * g.head(m);
+  if (m > 0) {
+    const Eigen::MatrixXd Hdd_inv = PseudoInverse(H.topLeftCorner(m, m));
+    const Eigen::MatrixXd Hkd = H.bottomLeftCorner(k, m);
+    H_ = H.bottomRightCorner(k, k) - Hkd * Hdd_inv * Hkd.transpose();
+    b_ = g.tail(k) - Hkd * Hdd_inv * g.head(m);
+  } else {
+    H_ = H;
+    b_ = g;
+  }
 
   // 4. Factor H* = J^T J with J = S^1/2 V^T, and r = S^-1/2 V^T b*.
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (H_ + H_.transpose()));
