@@ -8,7 +8,7 @@ packages=(
   libeigen3-dev libpcl-dev liboctomap-dev libceres-dev libopencv-dev
   libcpp-httplib-dev libsqlite3-dev sqlite3 nlohmann-json3-dev libyaml-cpp-dev
   libnanoflann-dev libembree-dev libgtest-dev libgmock-dev libbenchmark-dev
-  curl gnuplot-nox
+  curl jq gnuplot-nox
 )
 # Web map (web/, tools/build-web.sh) and its browser test (tests/web): Debian's Chromium, and
 # Node.js with npm unless a node with npm is already there (NodeSource's nodejs bundles npm and
