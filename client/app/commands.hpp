@@ -4,5 +4,8 @@ namespace mapdelta::client::app {
 
 int RunDisparity(int argc, char** argv);
 int RunConfig(int argc, char** argv);
+int RunPipeline(int argc, char** argv);
+int RunUpload(int argc, char** argv);
+int RunDrift(int argc, char** argv);
 
 }  // namespace mapdelta::client::app

@@ -20,6 +20,7 @@ void PrintUsage() {
                "  upload DIR --server URL --token T\n"
                "            upload a keyframe folder written in offline mode\n"
                "  config [--config FILE]   print the effective configuration\n"
+               "  drift GT OUT [...]       drifting odometry from ground truth (test fixture)\n"
                "Run 'mapdelta-client <command> --help' for a command's options.\n");
 }
 
@@ -34,6 +35,9 @@ int main(int argc, char** argv) {
   try {
     if (command == "disparity") return mapdelta::client::app::RunDisparity(argc - 1, argv + 1);
     if (command == "config") return mapdelta::client::app::RunConfig(argc - 1, argv + 1);
+    if (command == "run") return mapdelta::client::app::RunPipeline(argc - 1, argv + 1);
+    if (command == "upload") return mapdelta::client::app::RunUpload(argc - 1, argv + 1);
+    if (command == "drift") return mapdelta::client::app::RunDrift(argc - 1, argv + 1);
   } catch (const mapdelta::Error& e) {
     std::fprintf(stderr, "mapdelta-client %s: error (%s): %s\n", command.c_str(),
                  std::string(mapdelta::ToString(e.code())).c_str(), e.what());

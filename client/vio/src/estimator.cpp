@@ -193,10 +193,10 @@ bool SlidingWindowEstimator::IsKeyframe(const FrameFeatures& features) const {
     const auto o = it->second.obs.find(last_kf->t_ns);
     if (o == it->second.obs.end()) continue;
     ++shared;
-    parallax += (f.left - o->second.left).norm() * ext_.focal_px;
+    parallax += (f.left - o->second.left).norm();
   }
   if (shared < config_.keyframe_min_tracked) return true;
-  return parallax / shared > config_.keyframe_parallax_px;
+  return parallax / shared > config_.keyframe_parallax;
 }
 
 EstimatorOutput SlidingWindowEstimator::AddFrame(const FrameFeatures& features,

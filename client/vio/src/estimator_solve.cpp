@@ -29,7 +29,7 @@ void SlidingWindowEstimator::LandmarkFactors(Landmark* lm, FactorList* out) cons
     Frame* f = FindFrame(t);
     out->push_back({ReprojectionFactor::Create(a.left, obs.left, cam0_, cam0_, weight_),
                     {anchor->pose, f->pose, &lm->inv_depth}});
-    if (obs.has_right) {
+    if (obs.has_right && config_.right_in_other_frames) {
       out->push_back({ReprojectionFactor::Create(a.left, obs.right, cam0_, cam1_, weight_),
                       {anchor->pose, f->pose, &lm->inv_depth}});
     }

@@ -89,16 +89,40 @@ bool Marginalizer::Marginalize() {
     }
   }
 
-  // 3. Schur complement onto the kept coordinates.
+  // 3. Schur complement onto the kept coordinates. Dropped blocks of size 1 (landmark inverse
+  //    depths, which share no factor with each other) form a diagonal block: eliminate them
+  //    first in O(n^2) each, then the remaining dropped states densely.
+  std::vector<int> points, states;
+  for (const auto& [block, size] : size_of) {
+    if (!dropped_.count(block)) continue;
+    (size == 1 ? points : states).push_back(offset[block]);
+    if (size != 1) {
+      for (int d = 1; d < TangentSizeOf(size); ++d) states.push_back(offset[block] + d);
+    }
+  }
+  for (int p : points) {
+    const double hpp = H(p, p);
+    if (!(hpp > 1e-12)) continue;
+    const Eigen::VectorXd col = H.col(p);
+    H.noalias() -= col * col.transpose() / hpp;
+    g -= col * (g[p] / hpp);
+  }
   const int k = n - m;
-  if (m > 0) {
-    const Eigen::MatrixXd Hdd_inv = PseudoInverse(H.topLeftCorner(m, m));
-    const Eigen::MatrixXd Hkd = H.bottomLeftCorner(k, m);
-    H_ = H.bottomRightCorner(k, k) - Hkd * Hdd_inv * Hkd.transpose();
-    b_ = g.tail(k) - Hkd * Hdd_inv * g.head(m);
+  const int ms = static_cast<int>(states.size());
+  if (ms > 0) {
+    Eigen::MatrixXd Hss(ms, ms), Hks(k, ms);
+    Eigen::VectorXd gs(ms);
+    for (int a = 0; a < ms; ++a) {
+      gs[a] = g[states[a]];
+      Hks.col(a) = H.block(m, states[a], k, 1);
+      for (int c = 0; c < ms; ++c) Hss(a, c) = H(states[a], states[c]);
+    }
+    const Eigen::MatrixXd Hss_inv = PseudoInverse(Hss);
+    H_ = H.bottomRightCorner(k, k) - Hks * Hss_inv * Hks.transpose();
+    b_ = g.tail(k) - Hks * Hss_inv * gs;
   } else {
-    H_ = H;
-    b_ = g;
+    H_ = H.bottomRightCorner(k, k);
+    b_ = g.tail(k);
   }
 
   // 4. Factor H* = J^T J with J = S^1/2 V^T, and r = S^-1/2 V^T b*.

@@ -34,6 +34,14 @@ void CheckRectified(const EurocCamera& cam0, const EurocCamera& cam1) {
   }
 }
 
+ImuNoiseDensities FlooredNoise(const VioConfig& c, ImuNoiseDensities n) {
+  n.gyroscope_noise_density = std::max(n.gyroscope_noise_density, c.min_gyro_noise_density);
+  n.accelerometer_noise_density = std::max(n.accelerometer_noise_density, c.min_accel_noise_density);
+  n.gyroscope_random_walk = std::max(n.gyroscope_random_walk, c.min_gyro_random_walk);
+  n.accelerometer_random_walk = std::max(n.accelerometer_random_walk, c.min_accel_random_walk);
+  return n;
+}
+
 }  // namespace
 
 StageTimes& StageTimes::operator+=(const StageTimes& o) {
@@ -62,7 +70,7 @@ struct StereoInertialOdometry::Impl {
   int frames = 0;
 
   Impl(const VioConfig& c, const EurocCamera& c0, const EurocCamera& c1, const EurocImu& i)
-      : config(c), cam0(c0), cam1(c1), noise(i.noise), T_body_imu(i.T_body_imu),
+      : config(c), cam0(c0), cam1(c1), noise(FlooredNoise(c, i.noise)), T_body_imu(i.T_body_imu),
         ext{i.T_body_imu.inverse() * c0.T_body_cam, i.T_body_imu.inverse() * c1.T_body_cam,
             c0.intrinsics.fx},
         tracker(c.tracker), initializer(c, ext) {}

@@ -37,10 +37,18 @@ struct VioConfig {
   double pixel_sigma = 1.0;         // feature measurement noise, px
   double huber_sigmas = 1.5;        // robust loss threshold in units of pixel_sigma
   double outlier_sigmas = 4.0;      // observations beyond this after a solve are removed
-  double keyframe_parallax_px = 12; // mean parallax to the last keyframe that makes a keyframe
-  int keyframe_min_tracked = 60;    // fewer landmarks shared with the last keyframe: keyframe
+  // Mean parallax to the last keyframe that makes a keyframe, in normalized image units
+  // (0.025 = 10 px at fx = 400).
+  double keyframe_parallax = 0.025;
+  int keyframe_min_tracked = 40;    // fewer landmarks shared with the last keyframe: keyframe
   double keyframe_max_gap_s = 0.5;  // at most this long between keyframes
-  int solver_iterations = 8;
+  bool right_in_other_frames = false;  // also reproject right-camera observations of
+                                       // non-anchor frames (twice the visual factors)
+  // Floors on the IMU noise densities: a noiseless simulation still has discretization
+  // error, and zero densities would make the IMU factors infinitely stiff.
+  double min_gyro_noise_density = 2e-4, min_accel_noise_density = 2e-3;
+  double min_gyro_random_walk = 2e-5, min_accel_random_walk = 2e-4;
+  int solver_iterations = 6;
   double solver_max_time_s = 0.08;
   int solver_threads = 1;
   bool compute_keyframe_covariance = true;

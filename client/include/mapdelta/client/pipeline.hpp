@@ -1,0 +1,54 @@
+#pragma once
+// The whole vehicle pipeline over a recorded EuRoC-layout sequence, as three threads joined by
+// bounded queues:
+//   A  read frames, pick keyframes by odometry motion, SGBM depth     -> depth queue (cap 4)
+//   B  temporal filter (needs i+2), local cloud every N keyframes, prior registration + gate,
+//      Ceres fusion (incremental; final pass at the end), finalize     -> output queue (cap 16)
+//   C  write the keyframe folder and enqueue uploads (durable queue)
+// Keyframe k is final once it is final_lag_keyframes behind the newest and a registration at
+// or after k was fused (its pose is then constrained from both sides); the rest at the end.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mapdelta/client/config.hpp"
+#include "mapdelta/client/odometry_source.hpp"
+#include "mapdelta/client/prior_source.hpp"
+#include "mapdelta/client/uploader.hpp"
+#include "mapdelta/common/pose.hpp"
+
+namespace mapdelta::client {
+
+struct PipelineInputs {
+  std::string sequence_dir;
+  OdometrySource* odometry = nullptr;    // required
+  PriorSource* prior = nullptr;          // null: no registration, fused = odometry
+  Uploader* uploader = nullptr;          // null: no upload
+  std::string keyframe_dir;              // keyframe folder output; empty: none
+  std::optional<SE3> initial_T_map_body; // guess at the first keyframe; null: ground truth
+  int max_frames = 0;                    // 0: all frames
+  int num_threads = 2;                   // for GICP
+};
+
+struct StageTiming {
+  std::string stage;
+  double seconds = 0;
+  size_t calls = 0;
+};
+
+struct PipelineResult {
+  Trajectory vio_T_map_body;    // odometry mapped into the map frame by the start-up pose
+  Trajectory fused_T_map_body;  // after the final pass
+  size_t frames = 0;
+  size_t keyframes = 0;
+  size_t registrations_accepted = 0;
+  size_t registrations_rejected = 0;
+  bool startup_refined = false;
+  std::vector<StageTiming> timing;
+  double wall_seconds = 0;
+};
+
+// Throws Error for unreadable inputs; rejected registrations are logged, not thrown.
+PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& inputs);
+
+}  // namespace mapdelta::client

@@ -1,0 +1,293 @@
+#include "mapdelta/client/pipeline.hpp"
+
+#include <atomic>
+#include <deque>
+#include <exception>
+#include <thread>
+
+#include "mapdelta/client/bounded_queue.hpp"
+#include "mapdelta/client/image.hpp"
+#include "mapdelta/client/local_cloud.hpp"
+#include "mapdelta/client/pose_fusion.hpp"
+#include "mapdelta/client/prior_registration.hpp"
+#include "mapdelta/client/stereo_depth.hpp"
+#include "mapdelta/client/temporal_filter.hpp"
+#include "mapdelta/common/error.hpp"
+#include "mapdelta/common/euroc.hpp"
+#include "mapdelta/common/keyframes.hpp"
+#include "mapdelta/common/log.hpp"
+#include "stage_timer.hpp"
+
+namespace mapdelta::client {
+namespace {
+
+constexpr size_t kDepthQueueCapacity = 4;    // ~1.4 MB per 800x450 depth image
+constexpr size_t kOutputQueueCapacity = 16;
+
+struct KeyframeDepth {
+  int64_t t_ns = 0;
+  OdometrySample odom;
+  DepthImage raw;
+};
+
+struct FinalKeyframe {
+  Keyframe keyframe;
+};
+
+// Captures the first exception of any stage so RunPipeline can rethrow it after joining.
+struct Failure {
+  std::mutex mutex;
+  std::exception_ptr error;
+  void Set(std::exception_ptr e) {
+    std::lock_guard lock(mutex);
+    if (!error) error = e;
+  }
+};
+
+bool IsNewKeyframe(const SE3& last, int64_t last_t, const SE3& now, int64_t t,
+                   const KeyframeSelectionConfig& c) {
+  return (last.translation() - now.translation()).norm() >= c.min_translation_m ||
+         RotationAngle(last, now) * 180.0 / M_PI >= c.min_rotation_deg ||
+         (t - last_t) * 1e-9 >= c.max_interval_s;
+}
+
+// Stage B state: filter window, fusion, registration, finalization.
+class Backend {
+ public:
+  Backend(const ClientConfig& config, const PipelineInputs& in, const StereoRig& rig,
+          const SE3& initial_guess, StageTimer* timer, BoundedQueue<FinalKeyframe>* out,
+          PipelineResult* result)
+      : config_(config), in_(in), rig_(rig), timer_(timer), out_(out), result_(result),
+        fusion_(config.fusion) {
+    Matrix6 init_cov = Matrix6::Zero();
+    init_cov.diagonal() << Eigen::Vector3d::Constant(std::pow(config.fusion.init_sigma_rot_rad, 2)),
+        Eigen::Vector3d::Constant(std::pow(config.fusion.init_sigma_trans_m, 2));
+    fusion_.SetInitialPose(initial_guess, init_cov);
+    if (in.prior != nullptr) registrar_.emplace(config.registration, in.prior, in.num_threads);
+  }
+
+  void Add(KeyframeDepth kf) {
+    raw_.push_back(std::move(kf));
+    // Keyframe i is filtered once i + half_window has arrived.
+    const size_t w = static_cast<size_t>(config_.temporal_filter.half_window);
+    if (raw_.size() > w + filtered_in_window_) FilterNext();
+  }
+
+  void Finish() {
+    while (filtered_in_window_ < raw_.size()) FilterNext();
+    {
+      StageTimer::Scope t(timer_, "5 fusion (final pass)");
+      const FusionSummary s = fusion_.Optimize(config_.fusion.final_iterations);
+      MD_LOG(kInfo, "fusion final pass: " << s.iterations << " iterations, cost " << s.initial_cost
+                                          << " -> " << s.final_cost << ", " << s.seconds << " s");
+    }
+    EmitFinal(fusion_.size());
+    for (size_t k = 0; k < fusion_.size(); ++k) {
+      result_->vio_T_map_body.push_back({fusion_.t_ns(k), fusion_.OdometryInMap(k)});
+      result_->fused_T_map_body.push_back({fusion_.t_ns(k), fusion_.FusedPose(k)});
+    }
+  }
+
+ private:
+  // Filters the oldest unfiltered keyframe with its neighbours i-w..i+w in raw_.
+  void FilterNext() {
+    const size_t w = static_cast<size_t>(config_.temporal_filter.half_window);
+    const size_t i = filtered_in_window_;
+    std::vector<DepthFrame> frames;
+    size_t center = 0;
+    for (size_t j = (i >= w ? i - w : 0); j < std::min(raw_.size(), i + w + 1); ++j) {
+      if (j == i) center = frames.size();
+      frames.push_back({raw_[j].odom.T_odom_body * rig_.T_body_cam0, &raw_[j].raw});
+    }
+    DepthImage filtered;
+    {
+      StageTimer::Scope t(timer_, "2 temporal filter");
+      filtered = TemporalFilter(frames, center, rig_.left, config_.temporal_filter);
+    }
+    const KeyframeDepth& kf = raw_[i];
+    const size_t k = fusion_.AddKeyframe(kf.t_ns, kf.odom.T_odom_body, kf.odom.rel_covariance);
+    filtered_.push_back(std::move(filtered));
+    ++filtered_in_window_;
+    // Raw depth older than the window is no longer needed.
+    while (filtered_in_window_ > w) {
+      raw_.pop_front();
+      --filtered_in_window_;
+    }
+    if ((k + 1) % static_cast<size_t>(config_.local_cloud.keyframes) == 0) Register(k);
+  }
+
+  // Local cloud of the last N keyframes anchored at k, registered to the prior.
+  void Register(size_t k) {
+    if (!registrar_) return;
+    const size_t n = static_cast<size_t>(config_.local_cloud.keyframes);
+    std::vector<LocalCloudFrame> frames;
+    for (size_t j = k + 1 - n; j <= k; ++j) {
+      if (j < first_unemitted_) continue;  // already handed downstream (only with odd configs)
+      frames.push_back({fusion_.OdometryPose(j), &filtered_[j - first_unemitted_]});
+    }
+    PointCloud local;
+    {
+      StageTimer::Scope t(timer_, "3 local cloud");
+      local = BuildLocalCloud(frames, fusion_.OdometryPose(k), rig_.left, rig_.T_body_cam0,
+                              config_.local_cloud);
+    }
+    RegistrationOutcome r;
+    {
+      StageTimer::Scope t(timer_, "4 registration");
+      const SE3 guess = fusion_.FusedPose(k);
+      r = started_ ? registrar_->Register(local, guess) : registrar_->RefineInitialPose(local, guess);
+    }
+    if (!r.accepted) {
+      ++result_->registrations_rejected;
+      MD_LOG(kWarn, "registration of keyframe " << k << (started_ ? "" : " (start-up)")
+                                                << " rejected: " << r.reason);
+      return;
+    }
+    ++result_->registrations_accepted;
+    if (!started_) {
+      MD_LOG(kInfo, "start-up pose refined by " << r.correction_m << " m, "
+                                                << r.correction_rad * 180.0 / M_PI << " deg");
+      started_ = true;
+      result_->startup_refined = true;
+    }
+    {
+      StageTimer::Scope t(timer_, "5 fusion (incremental)");
+      fusion_.AddRegistration(k, r.T_map_body, r.covariance);
+      fusion_.Optimize(config_.fusion.incremental_iterations);
+    }
+    const long lag = config_.fusion.final_lag_keyframes;
+    const long limit = std::min<long>(fusion_.LastRegisteredKeyframe() + 1,
+                                      static_cast<long>(fusion_.size()) - lag);
+    if (limit > 0) EmitFinal(static_cast<size_t>(limit));
+  }
+
+  // Sends keyframes [first_unemitted_, end) downstream with their fused poses.
+  void EmitFinal(size_t end) {
+    while (first_unemitted_ < end) {
+      FinalKeyframe f;
+      f.keyframe.t_ns = fusion_.t_ns(first_unemitted_);
+      f.keyframe.T_map_cam = fusion_.FusedPose(first_unemitted_) * rig_.T_body_cam0;
+      f.keyframe.depth = std::move(filtered_.front());
+      filtered_.pop_front();
+      ++first_unemitted_;
+      if (!out_->Push(std::move(f))) throw Error(ErrorCode::kInternal, "output queue closed");
+    }
+  }
+
+  const ClientConfig& config_;
+  const PipelineInputs& in_;
+  const StereoRig& rig_;
+  StageTimer* timer_;
+  BoundedQueue<FinalKeyframe>* out_;
+  PipelineResult* result_;
+  PoseFusion fusion_;
+  std::optional<PriorRegistrar> registrar_;
+  std::deque<KeyframeDepth> raw_;   // unfiltered keyframes still needed by the filter window
+  size_t filtered_in_window_ = 0;   // how many of raw_ are filtered already
+  std::deque<DepthImage> filtered_; // filtered depth of keyframes not yet emitted
+  size_t first_unemitted_ = 0;
+  bool started_ = false;            // start-up refinement accepted
+};
+
+}  // namespace
+
+PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in) {
+  if (in.odometry == nullptr) throw Error(ErrorCode::kInvalidArgument, "pipeline needs an odometry source");
+  const auto wall_start = std::chrono::steady_clock::now();
+  const EurocSequence seq = ReadEurocSequence(in.sequence_dir);
+  const StereoRig rig = MakeRectifiedStereoRig(seq);
+  auto frames = seq.StereoFrames();
+  if (in.max_frames > 0 && frames.size() > static_cast<size_t>(in.max_frames)) frames.resize(in.max_frames);
+  if (frames.empty()) throw Error(ErrorCode::kNotFound, in.sequence_dir + ": no stereo frames");
+
+  PipelineResult result;
+  StageTimer timer;
+  Failure failure;
+  BoundedQueue<KeyframeDepth> depth_queue(kDepthQueueCapacity);
+  BoundedQueue<FinalKeyframe> output_queue(kOutputQueueCapacity);
+  std::atomic<size_t> frames_done{0}, keyframes{0};
+
+  // Stage A: frames -> keyframes -> depth.
+  std::optional<SE3> first_odom;
+  std::thread stage_a([&] {
+    try {
+      const StereoDepth stereo(config.stereo);
+      std::optional<std::pair<int64_t, SE3>> last;
+      for (const auto& frame : frames) {
+        ++frames_done;
+        if (frames_done % 100 == 0) {
+          MD_LOG(kInfo, "progress: frame " << frames_done << "/" << frames.size() << ", "
+                                           << keyframes << " keyframes");
+        }
+        std::optional<OdometrySample> odom;
+        {
+          StageTimer::Scope t(&timer, "0 odometry");
+          odom = in.odometry->At(frame.t_ns);
+        }
+        if (!odom) continue;
+        if (last && !IsNewKeyframe(last->second, last->first, odom->T_odom_body, frame.t_ns, config.keyframes)) continue;
+        last = {frame.t_ns, odom->T_odom_body};
+        KeyframeDepth kf{frame.t_ns, *odom, {}};
+        {
+          StageTimer::Scope t(&timer, "1 stereo depth");
+          kf.raw = stereo.ComputeDepth(ReadGrayImage(frame.left_path), ReadGrayImage(frame.right_path), rig);
+        }
+        ++keyframes;
+        if (!depth_queue.Push(std::move(kf))) break;
+      }
+    } catch (...) {
+      failure.Set(std::current_exception());
+    }
+    depth_queue.Close();
+  });
+
+  // Stage C: keyframe folder + upload queue.
+  std::thread stage_c([&] {
+    try {
+      while (auto f = output_queue.Pop()) {
+        StageTimer::Scope t(&timer, "6 output + upload queue");
+        if (!in.keyframe_dir.empty()) AppendKeyframe(in.keyframe_dir, rig.left, config.upload.depth_scale, f->keyframe);
+        if (in.uploader != nullptr) in.uploader->Enqueue(f->keyframe);
+      }
+    } catch (...) {
+      failure.Set(std::current_exception());
+      output_queue.Close();
+    }
+  });
+
+  // Stage B on this thread.
+  try {
+    std::optional<Backend> backend;
+    while (auto kf = depth_queue.Pop()) {
+      if (!backend) {
+        SE3 guess;
+        if (in.initial_T_map_body) {
+          guess = *in.initial_T_map_body;
+        } else if (!seq.groundtruth.empty() && InterpolateAt(seq.groundtruth, kf->t_ns, &guess)) {
+          MD_LOG(kWarn, "no initial pose given: using the sequence's ground truth at the first keyframe");
+        } else {
+          throw Error(ErrorCode::kInvalidArgument,
+                      "no initial pose given and the sequence has no ground truth to take it from");
+        }
+        backend.emplace(config, in, rig, guess, &timer, &output_queue, &result);
+      }
+      backend->Add(std::move(*kf));
+    }
+    if (backend) backend->Finish();
+  } catch (...) {
+    failure.Set(std::current_exception());
+    depth_queue.Close();
+  }
+  output_queue.Close();
+  stage_a.join();
+  stage_c.join();
+  if (failure.error) std::rethrow_exception(failure.error);
+
+  result.frames = frames_done;
+  result.keyframes = keyframes;
+  result.timing = timer.Summary();
+  result.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return result;
+}
+
+}  // namespace mapdelta::client
