@@ -25,14 +25,13 @@ PointCloud Select(const PointCloud& cloud, const std::vector<char>& keep) {
   return out;
 }
 
-// keep[i] = (distance from cloud[i] to `reference` >= th) == far. Parallel over points.
-std::vector<char> DistanceTest(const PointCloud& cloud, const NeighborIndex& reference, double th,
-                               bool far) {
+// keep[i] = distance from cloud[i] to `reference` >= th (Alg. 2's test). Parallel over points.
+std::vector<char> FarFrom(const PointCloud& cloud, const NeighborIndex& reference, double th) {
   std::vector<char> keep(cloud.size(), 0);
+  const float radius = static_cast<float>(th);
 #pragma omp parallel for schedule(dynamic, 2048)
   for (long i = 0; i < static_cast<long>(cloud.size()); ++i) {
-    const double d = reference.NearestDistance(cloud[i]);  // +inf for an empty reference
-    keep[i] = far ? (d >= th) : (d <= th);
+    keep[i] = !reference.AnyWithin(cloud[i], radius, /*inclusive=*/false);
   }
   return keep;
 }
@@ -47,7 +46,8 @@ PointCloud ObservedPriorCloud(const PointCloud& prior, const PointCloud& global,
 #pragma omp parallel for schedule(dynamic, 2048)
   for (long i = 0; i < static_cast<long>(prior.size()); ++i) {
     // The octree look-up is cheaper than the k-d tree query: try it first.
-    keep[i] = observed.IsObserved(prior[i]) || global_index.NearestDistance(prior[i]) <= th_ch_m;
+    keep[i] = observed.IsObserved(prior[i]) ||
+              global_index.AnyWithin(prior[i], static_cast<float>(th_ch_m), /*inclusive=*/true);
   }
   return Select(prior, keep);
 }
@@ -57,11 +57,11 @@ Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_pri
   Changes changes;
   {
     const NeighborIndex prior_index(observed_prior);
-    changes.new_points = Select(global, DistanceTest(global, prior_index, th_ch_m, true));
+    changes.new_points = Select(global, FarFrom(global, prior_index, th_ch_m));
   }
   const NeighborIndex global_index(global);
   changes.removed_points =
-      Select(observed_prior, DistanceTest(observed_prior, global_index, th_ch_m, true));
+      Select(observed_prior, FarFrom(observed_prior, global_index, th_ch_m));
   return changes;
 }
 

@@ -17,7 +17,7 @@ size_t CountWithin(const PointCloud& cloud, const PointCloud& reference, double 
   size_t count = 0;
 #pragma omp parallel for reduction(+ : count) schedule(dynamic, 2048)
   for (long i = 0; i < static_cast<long>(cloud.size()); ++i) {
-    count += index.NearestDistance(cloud[i]) <= th ? 1 : 0;
+    count += index.AnyWithin(cloud[i], static_cast<float>(th)) ? 1 : 0;
   }
   return count;
 }

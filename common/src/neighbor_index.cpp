@@ -16,6 +16,27 @@ struct CloudAdaptor {
   bool kdtree_get_bbox(Box&) const { return false; }
 };
 
+// Result set that ends the search at the first point inside the radius. nanoflann offers a
+// point only when its squared distance is < worstDist(), so the inclusive test raises the
+// bound to the next float above radius^2.
+class AnyWithinResultSet {
+ public:
+  AnyWithinResultSet(float radius_sq, bool inclusive)
+      : bound_(inclusive ? std::nextafter(radius_sq, std::numeric_limits<float>::infinity()) : radius_sq) {}
+  size_t size() const { return found_ ? 1 : 0; }
+  bool full() const { return true; }
+  bool addPoint(float dist_sq, size_t) {
+    found_ = found_ || dist_sq < bound_;
+    return !found_;  // false stops the search
+  }
+  float worstDist() const { return bound_; }
+  bool found() const { return found_; }
+
+ private:
+  float bound_;
+  bool found_ = false;
+};
+
 using KdTree = nanoflann::KDTreeSingleIndexAdaptor<
     nanoflann::L2_Simple_Adaptor<float, CloudAdaptor>, CloudAdaptor, 3, size_t>;
 
@@ -54,6 +75,13 @@ float NeighborIndex::NearestDistance(const Point& query) const {
   float d = std::numeric_limits<float>::infinity();
   Nearest(query, &i, &d);
   return d;
+}
+
+bool NeighborIndex::AnyWithin(const Point& query, float radius, bool inclusive) const {
+  if (empty() || !(radius >= 0.f)) return false;
+  AnyWithinResultSet result(radius * radius, inclusive);
+  impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
+  return result.found();
 }
 
 std::vector<size_t> NeighborIndex::RadiusSearch(const Point& query, float radius) const {

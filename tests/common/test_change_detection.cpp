@@ -9,6 +9,7 @@
 #include "box_scene.hpp"
 #include "mapdelta/common/change_detection.hpp"
 #include "mapdelta/common/metrics.hpp"
+#include "mapdelta/common/neighbor_index.hpp"
 
 namespace mapdelta {
 namespace {
@@ -19,6 +20,26 @@ double BruteNearest(const Point& p, const PointCloud& cloud) {
   double best = INFINITY;
   for (const auto& q : cloud) best = std::min(best, static_cast<double>((p - q).norm()));
   return best;
+}
+
+TEST(NeighborIndex, AnyWithinAgreesWithBruteForce) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> coord(0, 20);
+  PointCloud cloud(4000), queries(500);
+  for (auto& p : cloud) p = {coord(rng), coord(rng), coord(rng)};
+  for (auto& p : queries) p = {coord(rng) * 1.5f, coord(rng), coord(rng)};
+  const NeighborIndex index(cloud);
+  for (const float radius : {0.3f, 1.0f}) {
+    for (const auto& q : queries) {
+      const double d = BruteNearest(q, cloud);
+      EXPECT_EQ(index.AnyWithin(q, radius), d <= radius);
+      EXPECT_EQ(index.AnyWithin(q, radius, false), d < radius);
+    }
+  }
+  const PointCloud empty_cloud;
+  EXPECT_TRUE(index.AnyWithin(cloud[7], 0.f));          // inclusive: the point itself
+  EXPECT_FALSE(index.AnyWithin(cloud[7], 0.f, false));  // strict: nothing closer than 0
+  EXPECT_FALSE(NeighborIndex(empty_cloud).AnyWithin(Point(0, 0, 0), 100.f));
 }
 
 TEST(ChangeDetection, AlgorithmsOneAndTwoAgreeWithBruteForce) {

@@ -20,6 +20,9 @@ class NeighborIndex {
   bool Nearest(const Point& query, size_t* index, float* distance) const;
   // Distance to the nearest point (infinity when empty).
   float NearestDistance(const Point& query) const;
+  // True if some point lies within radius (distance <= radius, or < radius when !inclusive).
+  // Stops at the first such point: much cheaper than Nearest() for threshold tests.
+  bool AnyWithin(const Point& query, float radius, bool inclusive = true) const;
   // Indices of all points within radius (unsorted).
   std::vector<size_t> RadiusSearch(const Point& query, float radius) const;
   // k nearest indices, closest first.
