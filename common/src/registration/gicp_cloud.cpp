@@ -5,9 +5,8 @@
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
-#include "mapdelta/common/registration/gicp_factor.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
-#include "parallel.hpp"
+#include "covariance_estimation.hpp"
 
 namespace mapdelta {
 namespace {
@@ -16,25 +15,6 @@ void Require(bool ok, const std::string& field, const std::string& expectation) 
   if (!ok) {
     throw Error(ErrorCode::kInvalidArgument, "GicpParams." + field + " " + expectation);
   }
-}
-
-// Covariance of the k nearest neighbours of `query` (itself included), plane-regularized.
-// Too few or coincident neighbours carry no shape: an isotropic unit covariance then.
-Eigen::Matrix3f PointCovariance(const NeighborIndex& index, const PointCloud& points,
-                                const Point& query, size_t k) {
-  const std::vector<size_t> neighbors = index.KNearest(query, k);
-  if (neighbors.size() < 5) return Eigen::Matrix3f::Identity();
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (size_t i : neighbors) mean += points[i].cast<double>();
-  mean /= static_cast<double>(neighbors.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (size_t i : neighbors) {
-    const Eigen::Vector3d d = points[i].cast<double>() - mean;
-    cov += d * d.transpose();
-  }
-  cov /= static_cast<double>(neighbors.size());
-  if (!(cov.trace() > 1e-12) || !cov.allFinite()) return Eigen::Matrix3f::Identity();
-  return RegularizePlaneCovariance(cov).cast<float>();
 }
 
 }  // namespace
@@ -71,15 +51,15 @@ GicpCloud::GicpCloud(const PointCloud& cloud, const GicpParams& params) {
     RemoveNonFinite(&points);
   }
   impl_ = std::make_unique<Impl>(std::move(points));
-  const PointCloud& pts = impl_->points;
-  impl_->covariances.resize(pts.size());
   const size_t k = static_cast<size_t>(params.k_neighbors);
-  detail::ParallelRanges(pts.size(), params.num_threads, 0,
-                         [&](size_t begin, size_t end, int&) {
-                           for (size_t i = begin; i < end; ++i) {
-                             impl_->covariances[i] = PointCovariance(impl_->index, pts, pts[i], k);
-                           }
-                         });
+  if (params.covariance_neighborhood == CovarianceNeighborhood::kVoxelBlock && params.voxel_m > 0) {
+    impl_->covariances =
+        detail::CovariancesVoxelBlock(impl_->points, impl_->index,
+                                      kVoxelBlockCellFactor * params.voxel_m, k, params.num_threads);
+  } else {
+    impl_->covariances =
+        detail::CovariancesKNearest(impl_->points, impl_->index, k, params.num_threads);
+  }
 }
 
 GicpCloud::~GicpCloud() = default;

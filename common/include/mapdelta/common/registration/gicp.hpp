@@ -23,10 +23,23 @@ namespace mapdelta {
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 
+// Which points shape each point's covariance.
+enum class CovarianceNeighborhood {
+  kKNearest,    // the k_neighbors nearest points (k-d tree): exact, ~2 us per point
+  // The points in the 3x3x3 voxel-hash cells (edge kVoxelBlockCellFactor * voxel_m) around
+  // the point's cell; ~10x cheaper, falls back to k nearest where the block is sparse. Needs
+  // voxel_m > 0 (the cell follows the point spacing), else kKNearest is used.
+  kVoxelBlock,
+};
+// Cell edge / voxel_m for kVoxelBlock: a 3-cell block then spans ~5 voxels, about the extent
+// of 20 nearest neighbours on a surface sampled at voxel_m.
+inline constexpr double kVoxelBlockCellFactor = 1.7;
+
 struct GicpParams {
   int max_iterations = 64;            // outer (linearization) iterations
   double max_correspondence_m = 2.0;  // source points farther from the target are outliers
   int k_neighbors = 20;               // neighbours for each point's covariance (>= 5)
+  CovarianceNeighborhood covariance_neighborhood = CovarianceNeighborhood::kVoxelBlock;
   double voxel_m = 0.0;               // > 0: voxel-downsample source and target first
   double rotation_eps_rad = 1e-4;     // converged when a step rotates less than this ...
   double translation_eps_m = 1e-4;    // ... and translates less than this
