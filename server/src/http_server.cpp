@@ -43,6 +43,11 @@ int HttpServer::Bind(const std::string& address, int port) {
 
 void HttpServer::Run() { impl_->server.listen_after_bind(); }
 
+bool HttpServer::MountWebRoot(const std::string& dir) {
+  // httplib answers GET/HEAD from mounted files before the routes; the API has no files there.
+  return impl_->server.set_mount_point("/", dir);
+}
+
 void HttpServer::Stop() {
   if (impl_->server.is_running()) impl_->server.stop();
 }

@@ -23,7 +23,7 @@ namespace {
 constexpr const char* kUsage = R"(mapdelta-server: crowdsourced point-cloud map-update server (REST, SQLite).
 
 Usage:
-  mapdelta-server serve        --config FILE [--port N]
+  mapdelta-server serve        --config FILE [--port N] [--web-root DIR]
   mapdelta-server token create --config FILE --role vehicle|reader|admin --name NAME
   mapdelta-server token revoke --config FILE --id TOKEN_ID
   mapdelta-server token list   --config FILE
@@ -40,8 +40,9 @@ token revoke  Revokes a token by id (requests with it get 401 from then on).
 import-prior  Imports a PCD/PLY cloud as a new prior version (same as POST /v1/admin/prior).
 check-config  Validates the config (all problems at once) and prints the effective config.
 
---port N overrides http.port (0 picks a free port). Exit codes: 0 ok, 1 runtime error,
-2 usage or config error.
+--port N overrides http.port (0 picks a free port). --web-root DIR serves the web map's
+static files at / (default: the built web/dist; "" turns it off). Exit codes: 0 ok,
+1 runtime error, 2 usage or config error.
 )";
 
 struct Args {
@@ -93,7 +94,7 @@ void InstallLogSink(const mds::LogConfig& c) {
 }
 
 int Serve(const Args& a) {
-  CheckKnown(a, {"config", "port"});
+  CheckKnown(a, {"config", "port", "web-root"});
   mds::ServerConfig config = mds::LoadServerConfig(Required(a, "config"));
   if (a.options.count("port")) config.http.port = std::stoi(a.options.at("port"));
   InstallLogSink(config.log);
@@ -108,6 +109,10 @@ int Serve(const Args& a) {
 
   mds::MapService service(config, mds::OpenSqliteStorage(config.storage.database));
   mds::HttpServer http(service);
+  const std::string web_root = a.options.count("web-root") ? a.options.at("web-root") : MAPDELTA_WEB_ROOT;
+  if (!web_root.empty() && !http.MountWebRoot(web_root)) {
+    MD_LOG(kWarn, "web map not served: " << web_root << " is not a directory (tools/build-web.sh builds it)");
+  }
   const int port = http.Bind(config.http.listen_address, config.http.port);
   service.StartJobWorker();
   std::thread waiter([&] {

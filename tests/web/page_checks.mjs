@@ -14,8 +14,13 @@ export async function runPageChecks({ baseUrl, adminToken, expected, outDir, scr
     const page = context.pages()[0] ?? await context.newPage();
     const errors = [];
     page.on('pageerror', (e) => errors.push(String(e)));
-    page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+    // Every failed request is an error (the console line alone does not name the URL).
+    page.on('response', (r) => { if (r.status() >= 400) errors.push(`HTTP ${r.status()} ${r.url()}`); });
+    page.on('console', (m) => {
+      if (m.type() === 'error' && !m.text().startsWith('Failed to load resource')) errors.push(m.text());
+    });
 
+    log('chromium started');
     await page.goto(baseUrl + '/', { waitUntil: 'load' });
     await page.fill('#token-input', adminToken);
     await page.click('#token-form button[type=submit]');
@@ -63,7 +68,12 @@ export async function runPageChecks({ baseUrl, adminToken, expected, outDir, scr
     await page.waitForSelector(`body[data-tile-loaded="${expected.tile}"]`, { timeout: 30000 });
 
     // 4. Before/after: the refreshed tile's prior differs between the two versions.
-    const priorCount = async () => Number((await page.textContent('#view3d-info')).match(/prior v\d+: (\d+) pts/)[1]);
+    const priorCount = async () => {
+      const text = await page.textContent('#view3d-info');
+      const m = /prior v\d+: (\d+) pts/.exec(text);
+      check(m, `3D overlay shows the prior count (got "${text}")`);
+      return Number(m[1]);
+    };
     const after = await priorCount();
     await page.click('#before-after');
     await page.waitForFunction((v) => /prior v(\d+):/.exec(document.querySelector('#view3d-info').textContent)?.[1] === String(v),

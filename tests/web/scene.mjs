@@ -7,10 +7,10 @@ import { deflateSync } from 'node:zlib';
 export const TILE_SIZE = 50;
 export const CHANGED_TILE = '1_0';
 const GROUND = { min: [0, -20, -1], max: [100, 50, 0] };          // top face is z = 0
-const WALL = { min: [0, 44, 0], max: [100, 46, 14] };             // backdrop for the rays
-const KEPT = [{ min: [12, 14, 0], max: [20, 22, 8] }];            // tile 0_0, unchanged
-const REMOVED = { min: [60, 12, 0], max: [68, 20, 8] };           // tile 1_0, gone later
-const ADDED = { min: [78, 24, 0], max: [86, 32, 9] };             // tile 1_0, new later
+const WALL = { min: [0, 34, 0], max: [100, 36, 14] };             // backdrop for the rays
+const KEPT = [{ min: [12, 16, 0], max: [20, 22, 8] }];            // tile 0_0, unchanged
+const REMOVED = { min: [60, 14, 0], max: [68, 20, 8] };           // tile 1_0, gone later
+const ADDED = { min: [78, 22, 0], max: [86, 28, 9] };             // tile 1_0, new later
 
 export const PRIOR_BOXES = [GROUND, WALL, ...KEPT, REMOVED];
 export const CHANGED_BOXES = [GROUND, WALL, ...KEPT, ADDED];
@@ -61,7 +61,7 @@ function hitBox(o, d, b) {
   return t0 > 0 ? t0 : Infinity;
 }
 
-export const CAMERA = { width: 160, height: 90, fx: 80, fy: 80, cx: 80, cy: 45 };
+export const CAMERA = { width: 320, height: 180, fx: 160, fy: 160, cx: 160, cy: 90 };
 // Camera looking north (+y), level: columns of R_map_cam are the camera axes in the map.
 const R_MAP_CAM = [[1, 0, 0], [0, 0, 1], [0, -1, 0]];
 export const Q_MAP_CAM = [Math.SQRT1_2, -Math.SQRT1_2, 0, 0];   // qw qx qy qz of R_MAP_CAM
@@ -115,9 +115,9 @@ export function png16(values, width, height) {
     chunk('IHDR', ihdr), chunk('IDAT', deflateSync(raw)), chunk('IEND', Buffer.alloc(0))]);
 }
 
-// The vehicle drives east along y = -2 at 2 m height, one keyframe every 4 m.
+// The vehicle drives east along y = 6 at 2 m height, one keyframe every 4 m.
 export function keyframePositions() {
   const out = [];
-  for (let x = 4; x <= 96; x += 4) out.push([x, -2, 2]);
+  for (let x = 4; x <= 96; x += 4) out.push([x, 6, 2]);
   return out;
 }

@@ -82,9 +82,9 @@ async function loadView(bbox) {
 // First view: ask once over a wide box where the changes and the prior tiles are, then fit.
 async function discover() {
   try {
-    const wide = [-1e5, -1e5, 1e5, 1e5];
+    const wide = [-1e4, -1e4, 1e4, 1e4];   // the server's radius limit is 10 km
     const [changes, prior] = await Promise.all([
-      api.changedTiles(wide, 0, 1), api.priorTilesNear(0, 0, 1e5).catch(() => ({ tiles: [] }))]);
+      api.changedTiles(wide, 0, 1), api.priorTilesNear(0, 0, 1e4).catch(() => ({ tiles: [] }))]);
     state.tileSize = changes.tileSize ?? prior.tileSize ?? state.tileSize;
     top.tileSize = state.tileSize;
     setPriorVersion(changes.priorVersion ?? prior.priorVersion);
@@ -203,6 +203,7 @@ $('refresh-tile').addEventListener('click', async () => {
   $('refresh-tile').disabled = true;
   await runRefresh(api, tile, $('job-status'), {
     onDone: async () => {
+      document.body.dataset.tileLoaded = '';   // the tile is reloaded below
       state.version = null;
       await loadView(top.bbox());
       if (state.tile === tile) await pickTile(tile);

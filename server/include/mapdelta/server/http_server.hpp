@@ -20,6 +20,9 @@ class HttpServer {
   // Serves until Stop(); in-flight requests finish first.
   void Run();
   void Stop();
+  // Web map (web/, built by tools/build-web.sh): serves DIR's files at `/` beside the API.
+  // Returns false if DIR is not a directory.
+  bool MountWebRoot(const std::string& dir);
 
   struct Impl;
 
