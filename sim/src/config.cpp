@@ -40,7 +40,7 @@ SimConfig PresetConfig(const std::string& name) {
     c.preset = "paper";
     c.extent_x = c.extent_y = 250.0;
     c.max_height = 40.0;
-    c.block_size = 40.0;
+    c.block_size = 36.0;
     c.street_width = 14.0;
     c.small_objects = 80;
     c.width = 800;

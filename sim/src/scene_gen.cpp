@@ -179,6 +179,32 @@ Scene GenerateCity(const SimConfig& c, uint64_t seed) {
       }
     }
   }
+  // Outskirts: the strips between the outer streets and the scene border get a row of
+  // buildings too, so views across the city end at facades rather than an empty horizon.
+  {
+    const double ex = 0.5 * c.extent_x, ey = 0.5 * c.extent_y;
+    const double gx0 = s.streets.xs.front() - hw, gx1 = s.streets.xs.back() + hw;
+    const double gy0 = s.streets.ys.front() - hw, gy1 = s.streets.ys.back() + hw;
+    const double lot_len = 0.5 * (c.block_size + c.street_width);
+    SimConfig tall = c;  // a taller backdrop: upper half of the height range
+    tall.min_height = 0.5 * (c.min_height + c.max_height);
+    struct Strip { double x0, y0, x1, y1; bool along_y; };
+    const Strip strips[4] = {{-ex, -ey, gx0, ey, true}, {gx1, -ey, ex, ey, true},
+                             {gx0, -ey, gx1, gy0, false}, {gx0, gy1, gx1, ey, false}};
+    for (const Strip& st : strips) {
+      if ((st.along_y ? st.x1 - st.x0 : st.y1 - st.y0) < 6.0) continue;
+      const double len = st.along_y ? st.y1 - st.y0 : st.x1 - st.x0;
+      const int n = std::max(1, static_cast<int>(std::round(len / lot_len)));
+      for (int k = 0; k < n; ++k) {
+        const double a = k * len / n, b = (k + 1) * len / n;
+        if (rng.Chance(0.15)) continue;
+        Object o = st.along_y ? MakeBuilding(rng, st.x0, st.y0 + a, st.x1, st.y0 + b, tall)
+                              : MakeBuilding(rng, st.x0 + a, st.y0, st.x0 + b, st.y1, tall);
+        o.id = s.next_id++;
+        s.objects.push_back(std::move(o));
+      }
+    }
+  }
   // Changed scenes need two empty lots; free buildings (last generated first) if there are fewer.
   while (s.empty_lots.size() < 2) {
     auto it = std::find_if(s.objects.rbegin(), s.objects.rend(),

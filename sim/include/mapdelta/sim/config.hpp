@@ -32,8 +32,8 @@ struct SimConfig {
   double extent_y = 120.0;
   double max_height = 30.0;       // tallest building
   double min_height = 6.0;
-  double block_size = 30.0;       // block edge between streets
-  double street_width = 12.0;     // kerb to kerb incl. sidewalks
+  double block_size = 22.0;       // block edge between streets
+  double street_width = 10.0;     // kerb to kerb incl. sidewalks
   int small_objects = 20;         // cars, trees, lamps, kiosks
   double cloud_leaf = 0.2;        // GT cloud voxel size after dense sampling
 
