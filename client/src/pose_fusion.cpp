@@ -218,17 +218,26 @@ FusionSummary PoseFusion::Optimize(int max_iterations) {
   }
   // 3. Registration factors (robust): global position, and rotation relative to the first
   //    registered keyframe.
+  //    The first registration (the start-up fix, which sets the absolute heading the paper
+  //    assumes known) enters as a full 6-DoF pose factor with its full covariance.
   const Registration* anchor = registrations_.empty() ? nullptr : &registrations_.front();
   for (const auto& reg : registrations_) {
     auto& s = keyframes_[reg.k];
     const Eigen::Matrix3d R = reg.T_map_body.linear();
+    if (&reg == anchor) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost{
+              Eigen::Quaterniond(R), reg.T_map_body.translation(), SqrtInformation(reg.covariance)}),
+          new ceres::HuberLoss(config_.huber_delta), s.q, s.p);
+      continue;
+    }
     // Right-perturbed translation v maps to the map frame as R v.
     const Eigen::Matrix3d cov_p = R * reg.covariance.bottomRightCorner<3, 3>() * R.transpose();
     problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<GlobalPositionCost, 3, 3>(
             new GlobalPositionCost{reg.T_map_body.translation(), SqrtInformation3(cov_p)}),
         new ceres::HuberLoss(config_.huber_delta), s.p);
-    if (&reg == anchor || reg.k == anchor->k) continue;
+    if (reg.k == anchor->k) continue;
     const Eigen::Matrix3d R_rel = anchor->T_map_body.linear().transpose() * R;
     // z = R_a^T R_k: a right perturbation w_a of R_a moves z by -R_rel^T w_a.
     const Eigen::Matrix3d cov_r = R_rel.transpose() * anchor->covariance.topLeftCorner<3, 3>() * R_rel +

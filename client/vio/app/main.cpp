@@ -4,6 +4,7 @@
 #include <cstring>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "mapdelta/common/ate.hpp"
 #include "mapdelta/common/error.hpp"
@@ -21,6 +22,9 @@ const char* kUsage =
     "  --keyframes-out FILE  TUM trajectory of keyframes (final window estimates)\n"
     "  --max-frames N        process only the first N stereo frames\n"
     "  --threads N           Ceres threads (default 1)\n"
+    "  --set KEY=VALUE       override a VioConfig number: iterations, window, max_features,\n"
+    "                        min_distance, pixel_sigma, huber, parallax, right_other (0/1),\n"
+    "                        covariance (0/1)\n"
     "  --log-level L         debug|info|warn|error (default info)\n"
     "  --help                this text\n"
     "Rectified, undistorted stereo is required (as mapdelta-sim writes).\n";
@@ -29,7 +33,34 @@ struct Options {
   std::string sequence, out, keyframes_out;
   int max_frames = 0, threads = 1;
   std::string log_level = "info";
+  std::vector<std::string> sets;
 };
+
+// Applies "key=value" to the config; false with a message for unknown keys or bad values.
+bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* error) {
+  const size_t eq = kv.find('=');
+  char* end = nullptr;
+  const double v = eq == std::string::npos ? 0 : std::strtod(kv.c_str() + eq + 1, &end);
+  if (eq == std::string::npos || !end || *end != '\0') {
+    *error = "--set expects KEY=NUMBER, got '" + kv + "'";
+    return false;
+  }
+  const std::string key = kv.substr(0, eq);
+  if (key == "iterations") c->solver_iterations = static_cast<int>(v);
+  else if (key == "window") c->window_keyframes = static_cast<int>(v);
+  else if (key == "max_features") c->tracker.max_features = static_cast<int>(v);
+  else if (key == "min_distance") c->tracker.min_distance_px = v;
+  else if (key == "pixel_sigma") c->pixel_sigma = v;
+  else if (key == "huber") c->huber_sigmas = v;
+  else if (key == "parallax") c->keyframe_parallax = v;
+  else if (key == "right_other") c->right_in_other_frames = v != 0;
+  else if (key == "covariance") c->compute_keyframe_covariance = v != 0;
+  else {
+    *error = "--set: unknown key '" + key + "'";
+    return false;
+  }
+  return true;
+}
 
 bool Parse(int argc, char** argv, Options* o, std::string* error) {
   for (int i = 1; i < argc; ++i) {
@@ -47,6 +78,7 @@ bool Parse(int argc, char** argv, Options* o, std::string* error) {
     else if (a == "--out") { if (!value(&o->out)) return false; }
     else if (a == "--keyframes-out") { if (!value(&o->keyframes_out)) return false; }
     else if (a == "--log-level") { if (!value(&o->log_level)) return false; }
+    else if (a == "--set") { if (!value(&v)) return false; o->sets.push_back(v); }
     else if (a == "--max-frames" || a == "--threads") {
       if (!value(&v)) return false;
       char* end = nullptr;
@@ -93,6 +125,12 @@ int main(int argc, char** argv) {
     const mapdelta::EurocSequence seq = mapdelta::ReadEurocSequence(o.sequence);
     mapdelta::vio::VioConfig config;
     config.solver_threads = std::max(1, o.threads);
+    for (const auto& kv : o.sets) {
+      if (!ApplySet(kv, &config, &error)) {
+        std::cerr << "mapdelta-vio: " << error << "\n";
+        return 2;
+      }
+    }
     mapdelta::vio::SequenceRunOptions run;
     run.max_frames = o.max_frames;
     run.on_frame = [](int i, int total, const mapdelta::vio::FrameEstimate& e) {

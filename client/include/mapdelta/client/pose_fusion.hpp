@@ -6,7 +6,10 @@
 //   - global position factor  p_k^p - p_k, from each accepted registration;
 //   - relative rotation factor (q_a^p)^-1 q_k^p (-) q_a^-1 q_k, from the first registered
 //     keyframe a (the paper's "initial frame") to keyframe k;
-//   - a prior on the first keyframe (the start-up pose, refined by registration).
+//   - a prior on the first keyframe (the start-up guess);
+//   - the first registration (the start-up fix: the paper assumes an accurate initial pose,
+//     heading included) as a full 6-DoF pose factor; it is also the relative rotation
+//     factors' reference frame a.
 // Registration factors use the registration covariance and a Huber loss. All covariances are
 // 6x6 [rotation, translation], right perturbation T (+) d = (R Exp(w), t + R v), as GICP's.
 #include <Eigen/Core>
