@@ -25,7 +25,16 @@ newer_than() {  # newer_than STAMP FILES... : true if STAMP is missing or any fi
 if newer_than node_modules/.package-lock.json package-lock.json package.json; then
   need_node
   echo "build-web: npm ci"
-  npm ci --no-audit --no-fund --loglevel=error
+  if ! npm ci --no-audit --no-fund --loglevel=error 2>npm-ci.log; then
+    # A registry mirror without other platforms' optional packages (rollup's @rollup/*
+    # binaries) makes `npm ci` refuse the lock file as out of sync. `npm install --no-save`
+    # installs the same pinned versions from package-lock.json without rewriting it.
+    grep -q "Missing: @rollup/" npm-ci.log || { cat npm-ci.log >&2; exit 1; }
+    echo "build-web: npm ci refused the lock (registry lacks other platforms' rollup binaries);" \
+         "installing the locked versions with npm install --no-save"
+    npm install --no-save --no-audit --no-fund --loglevel=error
+  fi
+  rm -f npm-ci.log
 fi
 
 if newer_than dist/.build-stamp index.html vite.config.js package-lock.json src; then
