@@ -2,6 +2,18 @@
 // (again flips the order); clicking a row picks the tile.
 import { STATE_COLORS } from './colors.js';
 
+// Rows sorted by `key` (dir 1 ascending, -1 descending); ties by tile id so the order is
+// stable across reloads. updated_at compares as time, not text.
+export function sortRows(rows, key, dir) {
+  const val = (r) => (key === 'updated_at' ? Date.parse(r.updated_at ?? '') || 0 : r[key]);
+  return [...rows].sort((a, b) => {
+    const va = val(a), vb = val(b);
+    if (va < vb) return -dir;
+    if (va > vb) return dir;
+    return a.tile < b.tile ? -1 : a.tile > b.tile ? 1 : 0;
+  });
+}
+
 export class TileList {
   constructor(table, countEl, onPick) {
     this.table = table;
@@ -32,13 +44,7 @@ export class TileList {
 
   render() {
     const { key, dir } = this.sort;
-    const val = (r) => (key === 'updated_at' ? Date.parse(r.updated_at ?? '') || 0 : r[key]);
-    const rows = [...this.rows].sort((a, b) => {
-      const va = val(a), vb = val(b);
-      if (va < vb) return -dir;
-      if (va > vb) return dir;
-      return a.tile < b.tile ? -1 : 1;
-    });
+    const rows = sortRows(this.rows, key, dir);
     this.table.querySelectorAll('th').forEach((th) => {
       th.classList.toggle('sorted-asc', th.dataset.key === key && dir > 0);
       th.classList.toggle('sorted-desc', th.dataset.key === key && dir < 0);
