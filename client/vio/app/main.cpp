@@ -160,6 +160,11 @@ int main(int argc, char** argv) {
       const auto ate = mapdelta::ComputeAte(seq.groundtruth, result.frames);
       std::printf("ATE (SE3-aligned, %zu poses): rmse %.3f m  mean %.3f  max %.3f\n", ate.pairs,
                   ate.rmse, ate.mean, ate.max);
+      mapdelta::AteParams sim3;
+      sim3.alignment = mapdelta::AteAlignment::kSim3;
+      const auto ate_sim3 = mapdelta::ComputeAte(seq.groundtruth, result.frames, sim3);
+      std::printf("ATE (Sim3-aligned): rmse %.3f m, scale %.4f\n", ate_sim3.rmse,
+                  ate_sim3.alignment.scale);
     }
   } catch (const std::exception& e) {
     std::cerr << "mapdelta-vio: " << e.what() << "\n";
