@@ -225,6 +225,9 @@ async function start() {
   await discover();
 }
 
+// For benchmarks and debugging from the console (bench/web/bench_web_tile.mjs).
+window.mapdelta = { api, view, top, state, parseCloud };
+
 $('token-form').addEventListener('submit', (e) => {
   e.preventDefault();
   localStorage.setItem(TOKEN_KEY, $('token-input').value.trim());
