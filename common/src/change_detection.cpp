@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "mapdelta/common/depth_cloud.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
@@ -81,15 +82,7 @@ PointCloud BuildGlobalCloud(const KeyframeFolder& keyframes, double max_depth_m,
 #pragma omp parallel for schedule(dynamic, 1)
   for (long k = 0; k < static_cast<long>(per_keyframe.size()); ++k) {
     const Keyframe& keyframe = keyframes.keyframes[k];
-    const Eigen::Isometry3f T = keyframe.T_map_cam.cast<float>();
-    PointCloud points;
-    for (int v = 0; v < camera.height; ++v) {
-      for (int u = 0; u < camera.width; ++u) {
-        const float d = keyframe.depth.at(u, v);
-        if (!(std::isfinite(d) && d > 0.f && d < max_depth_m)) continue;
-        points.push_back(T * camera.BackProject(u, v, d).cast<float>());
-      }
-    }
+    const PointCloud points = DepthToCloud(camera, keyframe.depth, keyframe.T_map_cam, max_depth_m);
     per_keyframe[k] = VoxelDownsample(points, static_cast<float>(voxel_m));
   }
   PointCloud all;

@@ -8,6 +8,8 @@
 
 #include "box_scene.hpp"
 #include "mapdelta/common/change_detection.hpp"
+#include "mapdelta/common/depth_cloud.hpp"
+#include "mapdelta/common/error.hpp"
 #include "mapdelta/common/metrics.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
 
@@ -40,6 +42,34 @@ TEST(NeighborIndex, AnyWithinAgreesWithBruteForce) {
   EXPECT_TRUE(index.AnyWithin(cloud[7], 0.f));          // inclusive: the point itself
   EXPECT_FALSE(index.AnyWithin(cloud[7], 0.f, false));  // strict: nothing closer than 0
   EXPECT_FALSE(NeighborIndex(empty_cloud).AnyWithin(Point(0, 0, 0), 100.f));
+}
+
+// Back-projected rendered depth lands on the box surfaces and projects back to its pixel.
+TEST(DepthToCloud, RenderedBoxDepthLandsOnTheSurfaceAndProjectsBack) {
+  const testing::BoxWorld world = testing::MakeBoxWorld();
+  const Keyframe& keyframe = world.keyframes.keyframes[5];
+  const PinholeCamera& camera = world.keyframes.camera;
+  const PointCloud cloud = DepthToCloud(camera, keyframe.depth, keyframe.T_map_cam, 50.0);
+  ASSERT_GT(cloud.size(), 10000u);
+  for (const Point& p : cloud) {
+    double best = INFINITY;  // distance to the nearest face of the nearest box
+    for (const Box& box : world.changed) {
+      const Eigen::Vector3d q = p.cast<double>();
+      const Eigen::Vector3d outside = (box.min - q).cwiseMax(q - box.max).cwiseMax(0.0);
+      const double inside = std::min((q - box.min).minCoeff(), (box.max - q).minCoeff());
+      best = std::min(best, outside.norm() > 0 ? outside.norm() : std::max(inside, 0.0));
+    }
+    ASSERT_LT(best, 1e-3) << p.transpose();
+    const Eigen::Vector3d p_cam = keyframe.T_map_cam.inverse() * p.cast<double>();
+    const double u = camera.fx * p_cam.x() / p_cam.z() + camera.cx;  // back on an integer pixel
+    const double v = camera.fy * p_cam.y() / p_cam.z() + camera.cy;
+    ASSERT_NEAR(u, std::round(u), 1e-2);
+    ASSERT_NEAR(v, std::round(v), 1e-2);
+  }
+  size_t valid = 0;
+  for (float d : keyframe.depth.depth_m) valid += d > 0 && d < 50 ? 1 : 0;
+  EXPECT_EQ(cloud.size(), valid);
+  EXPECT_THROW(DepthToCloud(camera, DepthImage(3, 3), SE3::Identity(), 50.0), Error);
 }
 
 TEST(ChangeDetection, AlgorithmsOneAndTwoAgreeWithBruteForce) {
