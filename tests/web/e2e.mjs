@@ -60,6 +60,8 @@ async function main() {
     log(`changed tiles: ${JSON.stringify(list.tiles ?? list)}`);
     const row = (list.tiles ?? []).find((t) => t.tile === S.CHANGED_TILE);
     check(row, `tile ${S.CHANGED_TILE} is listed as changed`);
+    // Tile 0_0 holds an unchanged box and the same ground and wall: nothing changed there.
+    check((list.tiles ?? []).length === 1, `only ${S.CHANGED_TILE} changed (got ${(list.tiles ?? []).map((t) => t.tile)})`);
     const newPts = parseCloud(await reader.bytes(`/v1/changes/tiles/${S.CHANGED_TILE}?format=pcd&kind=new`));
     const rmPts = parseCloud(await reader.bytes(`/v1/changes/tiles/${S.CHANGED_TILE}?format=pcd&kind=removed`));
     const fNew = fractionIn(newPts, S.ADDED_BOX, 2.0), fRm = fractionIn(rmPts, S.REMOVED_BOX, 2.0);
