@@ -1,0 +1,404 @@
+// Integration test: the real HTTP server (in-process, loopback port) driven by a real HTTP
+// client. A prior of ground + two boxes is imported; two vehicles upload sessions over a
+// changed scene (box A removed, box C added; depth rendered analytically); the changes must
+// lie on box A (removed) and box C (new); a refresh job must produce prior version 2 with
+// box C and without box A, while version 1 stays readable.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "auth.hpp"
+#include "box_scene.hpp"
+#include "mapdelta/common/cloud_io.hpp"
+#include "mapdelta/common/log.hpp"
+#include "mapdelta/server/http_server.hpp"
+#include "mapdelta/server/map_service.hpp"
+
+#include <httplib.h>  // last: its <resolv.h> defines macros that break Eigen
+
+namespace mapdelta::server {
+namespace {
+
+using testing::Box;
+using testing::BoxScene;
+
+// The ground sits mid-voxel (octree voxel boundaries are at multiples of 0.8 m), so that
+// rays grazing over it do not mark the ground's own voxels as observed free space.
+constexpr double kGroundZ = -0.4;
+// Boxes (5 m) are taller than th_ch but lower than the 8 m high cameras, so their tops are
+// seen (a top above the camera is only grazed by free rays at voxel resolution, which the
+// method cannot tell from a removal).
+const Box kBoxA{{14, 10, kGroundZ}, {20, 15, 4.6}};   // in the prior, removed in the changed scene
+const Box kBoxB{{2, 10, kGroundZ}, {7, 15, 4.6}};     // in both
+const Box kBoxC{{30, 10, kGroundZ}, {36, 15, 4.6}};   // new in the changed scene
+constexpr double kCameraHeight = 8.0;
+constexpr double kMaxDepth = 50.0;   // th_d of the paper
+constexpr double kPitch = 0.35;      // 20 degrees down
+
+BoxScene PriorScene() {
+  BoxScene s;
+  s.ground.min = Eigen::Vector3f(-30, -10, 0);
+  s.ground.max = Eigen::Vector3f(70, 40, 0);
+  s.ground_z = kGroundZ;
+  s.boxes = {kBoxA, kBoxB};
+  return s;
+}
+BoxScene ChangedScene() {
+  BoxScene s = PriorScene();
+  s.boxes = {kBoxB, kBoxC};
+  return s;
+}
+
+PinholeCamera TestCamera() {
+  PinholeCamera c;
+  c.width = 160;
+  c.height = 90;
+  c.fx = c.fy = 80;
+  c.cx = 80;
+  c.cy = 45;
+  return c;
+}
+
+ServerConfig TestConfig(const std::string& db) {
+  ServerConfig c;
+  c.http.port = 0;
+  c.http.threads = 4;
+  c.http.max_body_bytes = 64 * 1024;
+  c.storage.database = db;
+  c.storage.tile_size_m = 20;
+  c.pipeline.max_depth_m = kMaxDepth;
+  c.pipeline.free_space_depth_m = 20;
+  c.pipeline.pixel_stride = 1;
+  c.classify.th_ch_m = 2.4;  // the reference evaluation's value
+  return c;
+}
+
+std::string PngString(const DepthImage& d) {
+  const auto png = EncodeDepthPng(d);
+  return std::string(png.begin(), png.end());
+}
+
+Json MetaJson(int64_t t_ns, const SE3& T) {
+  const Eigen::Quaterniond q(T.rotation());
+  const Eigen::Vector3d t = T.translation();
+  return Json{{"t_ns", t_ns}, {"T_map_cam", {{"t", {t.x(), t.y(), t.z()}}, {"q", {q.w(), q.x(), q.y(), q.z()}}}}};
+}
+
+class ServerHttpTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    log::SetLevel(log::Level::kWarn);
+    dir_ = std::filesystem::temp_directory_path() / ("mds_http_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+    service_ = std::make_unique<MapService>(TestConfig((dir_ / "db.sqlite").string()),
+                                            OpenSqliteStorage((dir_ / "db.sqlite").string()));
+    admin_ = "Bearer " + CreateToken(service_->storage(), "admin", Role::kAdmin, NowMs()).secret;
+    vehicle_ = "Bearer " + CreateToken(service_->storage(), "car", Role::kVehicle, NowMs()).secret;
+    reader_ = "Bearer " + CreateToken(service_->storage(), "viewer", Role::kReader, NowMs()).secret;
+    http_ = std::make_unique<HttpServer>(*service_);
+    port_ = http_->Bind("127.0.0.1", 0);
+    service_->StartJobWorker();
+    thread_ = std::thread([this] { http_->Run(); });
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
+    client_->set_read_timeout(60, 0);
+    for (int i = 0; i < 100 && !client_->Get("/health"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  void TearDown() override {
+    service_->StopJobWorker();
+    http_->Stop();
+    thread_.join();
+    http_.reset();
+    service_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+
+  httplib::Headers H(const std::string& auth) { return {{"Authorization", auth}}; }
+
+  // Status and parsed JSON body of a response (error bodies must be JSON too).
+  std::pair<int, Json> Call(const httplib::Result& r) {
+    EXPECT_TRUE(r) << "no response";
+    if (!r) return {0, Json()};
+    Json body;
+    if (r->get_header_value("Content-Type").rfind("application/json", 0) == 0) body = Json::parse(r->body);
+    if (r->status >= 400) {
+      EXPECT_TRUE(body.contains("error")) << r->body;
+      EXPECT_TRUE(body["error"].contains("code"));
+    }
+    return {r->status, body};
+  }
+
+  int64_t CreateSession(const std::string& vehicle) {
+    const Json camera{{"width", 160}, {"height", 90}, {"fx", 80}, {"fy", 80}, {"cx", 80}, {"cy", 45}};
+    auto [status, body] = Call(client_->Post("/v1/sessions", H(vehicle_),
+                                             Json{{"vehicle_id", vehicle}, {"camera", camera}}.dump(), "application/json"));
+    EXPECT_EQ(status, 201);
+    return body.value("session_id", int64_t{-1});
+  }
+
+  httplib::Result PutKeyframe(int64_t session, int64_t seq, const Json& meta, const std::string& png,
+                              const std::string& auth = "") {
+    httplib::MultipartFormDataItems items = {{"meta", meta.dump(), "", "application/json"},
+                                             {"depth", png, "depth.png", "image/png"}};
+    return client_->Put("/v1/sessions/" + std::to_string(session) + "/keyframes/" + std::to_string(seq),
+                        H(auth.empty() ? vehicle_ : auth), items);
+  }
+
+  // Drives along x at y_cam, kCameraHeight high, looking at the boxes; uploads every keyframe.
+  void UploadDrive(int64_t session, double y_cam) {
+    const BoxScene scene = ChangedScene();
+    int seq = 0;
+    for (double x = -5; x <= 45; x += 2.5, ++seq) {
+      const SE3 T = testing::CameraLookingMinusY(x, y_cam, kCameraHeight, kPitch);
+      const DepthImage depth = scene.Render(TestCamera(), T, kMaxDepth);
+      auto [status, body] = Call(PutKeyframe(session, seq, MetaJson(1000000000LL * (seq + 1), T), PngString(depth)));
+      ASSERT_EQ(status, 201) << body.dump();
+    }
+  }
+
+  Json WaitJob(int64_t job) {
+    for (int i = 0; i < 1200; ++i) {
+      auto [status, body] = Call(client_->Get("/v1/admin/jobs/" + std::to_string(job), H(admin_)));
+      EXPECT_EQ(status, 200);
+      const std::string state = body.value("state", "");
+      if (state != "queued" && state != "running") return body;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    ADD_FAILURE() << "job " << job << " did not finish";
+    return Json();
+  }
+
+  PointCloud FetchCloud(const std::string& path) {
+    auto r = client_->Get(path, H(reader_));
+    EXPECT_TRUE(r && r->status == 200) << (r ? r->body : "no response");
+    const std::string file = (dir_ / "fetched.pcd").string();
+    std::ofstream(file, std::ios::binary) << r->body;
+    return ReadCloud(file);
+  }
+
+  std::filesystem::path dir_;
+  std::unique_ptr<MapService> service_;
+  std::unique_ptr<HttpServer> http_;
+  std::unique_ptr<httplib::Client> client_;
+  std::thread thread_;
+  int port_ = 0;
+  std::string admin_, vehicle_, reader_;
+};
+
+TEST_F(ServerHttpTest, AuthRolesAnd401Vs403) {
+  EXPECT_EQ(Call(client_->Get("/health")).first, 200);
+  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1")).first, 401);
+  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer mdt_nope"))).first, 401);
+  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Basic abc"))).first, 401);
+  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H(vehicle_))).first, 403);
+  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H(reader_))).first, 200);
+  EXPECT_EQ(Call(client_->Get("/v1/admin/jobs", H(reader_))).first, 403);
+  EXPECT_EQ(Call(client_->Post("/v1/sessions", H(reader_), "{}", "application/json")).first, 403);
+  // Revoked tokens are rejected from then on.
+  const CreatedToken t = CreateToken(service_->storage(), "tmp", Role::kReader, NowMs());
+  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer " + t.secret))).first, 200);
+  ASSERT_TRUE(service_->storage().RevokeToken(t.record.id, NowMs()));
+  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer " + t.secret))).first, 401);
+  EXPECT_EQ(Call(client_->Get("/nope", H(admin_))).first, 404);
+}
+
+TEST_F(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
+  const int64_t s = CreateSession("car-1");
+  const SE3 T = testing::CameraLookingMinusY(0, 25, kCameraHeight, kPitch);
+  const std::string png = PngString(ChangedScene().Render(TestCamera(), T, kMaxDepth));
+  auto code = [&](const httplib::Result& r) { return Call(r).second["error"].value("code", std::string()); };
+  // Malformed JSON and bad fields in session creation.
+  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), "{\"vehicle_id\":", "application/json")), "invalid_json");
+  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), R"({"vehicle_id":"x","camera":{"width":-1}})", "application/json")), "invalid_argument");
+  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), std::string(70000, ' '), "application/json")), "payload_too_large");
+  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), "{}", "text/plain")), "unsupported_media_type");
+  // Keyframes: bad PNG, wrong size, NaN-ish pose, non-unit quaternion, unknown session.
+  EXPECT_EQ(code(PutKeyframe(s, 0, MetaJson(1, T), "not a png")), "invalid_image");
+  DepthImage small(80, 45);
+  EXPECT_EQ(code(PutKeyframe(s, 0, MetaJson(1, T), PngString(small))), "image_size_mismatch");
+  Json nan_pose = MetaJson(1, T);
+  nan_pose["T_map_cam"]["t"][0] = nullptr;  // what JSON encoders emit for NaN
+  EXPECT_EQ(code(PutKeyframe(s, 0, nan_pose, png)), "invalid_pose");
+  Json bad_q = MetaJson(1, T);
+  bad_q["T_map_cam"]["q"] = {1.0, 1.0, 0.0, 0.0};
+  EXPECT_EQ(code(PutKeyframe(s, 0, bad_q, png)), "invalid_pose");
+  Json bad_cov = MetaJson(1, T);
+  bad_cov["covariance"] = Json::array({1, 2, 3});
+  EXPECT_EQ(code(PutKeyframe(s, 0, bad_cov, png)), "invalid_pose");
+  EXPECT_EQ(code(PutKeyframe(9999, 0, MetaJson(1, T), png)), "not_found");
+  EXPECT_EQ(code(PutKeyframe(s, 0, MetaJson(1, T), png, reader_)), "forbidden");
+  {
+    auto r = client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/0", H(vehicle_), "{}", "application/json");
+    EXPECT_EQ(code(r), "unsupported_media_type");
+  }
+  // Nothing stored so far.
+  EXPECT_EQ(Call(client_->Get("/v1/sessions/" + std::to_string(s), H(vehicle_))).second["keyframe_count"], 0);
+  // Out of order, then the right one, an identical retry (200), a conflicting one (409).
+  EXPECT_EQ(code(PutKeyframe(s, 1, MetaJson(1, T), png)), "seq_out_of_order");
+  EXPECT_EQ(Call(PutKeyframe(s, 0, MetaJson(1, T), png)).first, 201);
+  EXPECT_EQ(Call(PutKeyframe(s, 0, MetaJson(1, T), png)).first, 200);
+  EXPECT_EQ(code(PutKeyframe(s, 0, MetaJson(2, T), png)), "keyframe_conflict");
+  EXPECT_EQ(code(PutKeyframe(s, 1, MetaJson(1, T), png)), "time_not_increasing");
+  EXPECT_EQ(Call(PutKeyframe(s, 1, MetaJson(2, T), png)).first, 201);
+  const Json session = Call(client_->Get("/v1/sessions/" + std::to_string(s), H(vehicle_))).second;
+  EXPECT_EQ(session["keyframe_count"], 2);
+  EXPECT_EQ(session["state"], "open");
+  // Commit twice: the second is a conflict. Unknown session: 404.
+  EXPECT_EQ(Call(client_->Post("/v1/sessions/" + std::to_string(s) + "/commit", H(vehicle_))).first, 202);
+  EXPECT_EQ(code(client_->Post("/v1/sessions/" + std::to_string(s) + "/commit", H(vehicle_))), "session_not_open");
+  EXPECT_EQ(code(PutKeyframe(s, 2, MetaJson(3, T), png)), "session_not_open");
+  EXPECT_EQ(code(client_->Post("/v1/sessions/424242/commit", H(vehicle_))), "not_found");
+  // Bad queries.
+  EXPECT_EQ(code(client_->Get("/v1/changes/tiles?bbox=1,2,3", H(reader_))), "invalid_argument");
+  EXPECT_EQ(code(client_->Get("/v1/changes/tiles/abc", H(reader_))), "not_found");
+  EXPECT_EQ(code(client_->Get("/v1/changes/tiles/1_x2", H(reader_))), "not_found");
+  EXPECT_EQ(code(client_->Get("/v1/changes/tiles/1_2?format=pcd", H(reader_))), "invalid_argument");
+  EXPECT_EQ(code(client_->Post("/v1/admin/jobs", H(admin_), R"({"type":"explode"})", "application/json")), "invalid_argument");
+  EXPECT_EQ(code(client_->Post("/v1/admin/jobs", H(admin_), R"({"type":"reclassify","params":{"th_ch_m":-1}})", "application/json")), "invalid_argument");
+  // The server still serves.
+  EXPECT_EQ(Call(client_->Get("/health")).first, 200);
+}
+
+TEST_F(ServerHttpTest, TwoSessionsChangesAndRefresh) {
+  // 1. Import the prior (admin endpoint, PCD bytes).
+  const PointCloud prior = PriorScene().Sample(0.4);
+  const std::string prior_file = (dir_ / "prior.pcd").string();
+  WriteCloud(prior_file, prior);
+  std::ifstream in(prior_file, std::ios::binary);
+  const std::string prior_bytes((std::istreambuf_iterator<char>(in)), {});
+  auto [st, imported] = Call(client_->Post("/v1/admin/prior?format=pcd", H(admin_), prior_bytes, "application/octet-stream"));
+  ASSERT_EQ(st, 201) << imported.dump();
+  EXPECT_EQ(imported["prior_version"], 1);
+  EXPECT_EQ(imported["points"], prior.size());
+  EXPECT_EQ(Call(client_->Post("/v1/admin/prior?format=pcd", H(admin_), "garbage", "application/octet-stream")).first, 400);
+
+  // Prior tiles around a position.
+  auto [st2, near] = Call(client_->Get("/v1/prior/tiles?x=17&y=12&radius=2", H(vehicle_)));
+  ASSERT_EQ(st2, 200);
+  ASSERT_EQ(near["tiles"].size(), 1u);
+  EXPECT_EQ(near["tiles"][0]["tile"], "0_0");
+
+  // 2. Two vehicles, slightly different paths, over the changed scene.
+  const int64_t s1 = CreateSession("car-1");
+  const int64_t s2 = CreateSession("car-2");
+  UploadDrive(s1, 25.0);
+  UploadDrive(s2, 24.0);
+  for (int64_t s : {s1, s2}) {
+    auto [status, body] = Call(client_->Post("/v1/sessions/" + std::to_string(s) + "/commit", H(vehicle_)));
+    ASSERT_EQ(status, 202);
+    const Json job = WaitJob(body["job_id"]);
+    ASSERT_EQ(job["state"], "succeeded") << job.dump(2);
+    // Exact poses: GICP may accept (a tiny correction) or reject (planar scene, slow
+    // convergence); either way the poses must stay put.
+    const Json& reg = job["result"]["registration"];
+    if (reg["status"] == "accepted") EXPECT_LT(reg["correction_m"].get<double>(), 0.2) << reg.dump();
+    EXPECT_NE(reg["status"], "skipped") << reg.dump();
+  }
+  EXPECT_EQ(Call(client_->Get("/v1/sessions/" + std::to_string(s1), H(reader_))).second["state"], "committed");
+
+  // 3. Changed tiles, then every change point of every tile against the analytic truth.
+  auto [st3, listing] = Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&page_size=2", H(reader_)));
+  ASSERT_EQ(st3, 200);
+  EXPECT_EQ(listing["prior_version"], 1);
+  ASSERT_GE(listing["total"].get<int>(), 2);
+  EXPECT_LE(listing["tiles"].size(), 2u);
+  const Json all = Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&page_size=100", H(reader_))).second;
+  size_t n_new = 0, n_removed = 0, n_new_both = 0;
+  std::vector<std::string> tiles;
+  for (const Json& t : all["tiles"]) {
+    tiles.push_back(t["tile"]);
+    const Json c = Call(client_->Get("/v1/changes/tiles/" + t["tile"].get<std::string>(), H(reader_))).second;
+    for (const Json& p : c["new"]) {
+      const Eigen::Vector3d x(p["p"][0], p["p"][1], p["p"][2]);
+      // New: box C, or the ground that box A covered (not in the prior, seen now).
+      const bool on_c = kBoxC.Distance(x) < 1.0;
+      const bool under_a = kBoxA.Distance(x) < 1.0 && x.z() < kGroundZ + 0.5;
+      EXPECT_TRUE(on_c || under_a) << "new point off box C and box A's footprint: " << p.dump();
+      ++n_new;
+      if (p["supported_by"].size() == 2) {
+        ++n_new_both;
+        EXPECT_NEAR(p["confidence"].get<double>(), 0.75, 1e-6);  // (2+1)/(2+2)
+      }
+    }
+    for (const Json& p : c["removed"]) {
+      const Eigen::Vector3d x(p["p"][0], p["p"][1], p["p"][2]);
+      EXPECT_LT(kBoxA.Distance(x), 0.01) << "removed point off box A: " << p.dump();
+      EXPECT_FALSE(p["observed_by"].empty());
+      ++n_removed;
+    }
+  }
+  EXPECT_GT(n_new, 30u);
+  EXPECT_GT(n_removed, 30u);
+  EXPECT_GT(n_new_both, 10u);
+  // Filters: min_support=2 keeps only points both vehicles support; PCD of one kind.
+  const Json strict = Call(client_->Get("/v1/changes/tiles/1_0?min_support=2", H(reader_))).second;
+  for (const Json& p : strict["new"]) EXPECT_EQ(p["supported_by"].size(), 2u);
+  const PointCloud removed_pcd = FetchCloud("/v1/changes/tiles/0_0?format=pcd&kind=removed");
+  for (const Point& p : removed_pcd) EXPECT_LT(kBoxA.Distance(p.cast<double>()), 0.01);
+  // The observed octree of a tile is a valid .bt download.
+  auto bt = client_->Get("/v1/observed/tiles/0_0.bt", H(reader_));
+  ASSERT_TRUE(bt && bt->status == 200);
+  EXPECT_EQ(bt->body.rfind("# Octomap OcTree binary file", 0), 0u);
+
+  // 4. Refresh everything changed with confidence >= 0.7 into version 2.
+  auto [st4, job] = Call(client_->Post("/v1/admin/jobs", H(admin_),
+                                       Json{{"type", "refresh"}, {"bbox", {-30, -10, 70, 40}}, {"min_confidence", 0.7}}.dump(),
+                                       "application/json"));
+  ASSERT_EQ(st4, 202) << job.dump();
+  const Json done = WaitJob(job["job_id"]);
+  ASSERT_EQ(done["state"], "succeeded") << done.dump(2);
+  EXPECT_EQ(done["result"]["prior_version"], 2);
+  const Json versions = Call(client_->Get("/v1/prior/versions", H(reader_))).second;
+  ASSERT_EQ(versions["versions"].size(), 2u);
+  EXPECT_EQ(versions["versions"][1]["source"], "refresh");
+
+  // 5. Version 2 has box C's front and lost box A's observed points; version 1 is unchanged.
+  // Box points only (above the ground), near the box.
+  auto count_near = [](const PointCloud& c, const Box& b, double d) {
+    return std::count_if(c.begin(), c.end(), [&](const Point& p) {
+      return p.z() > kGroundZ + 0.5 && b.Distance(p.cast<double>()) < d;
+    });
+  };
+  PointCloud v1, v2;
+  for (const char* tile : {"0_0", "1_0"}) {
+    const PointCloud a = FetchCloud(std::string("/v1/prior/tiles/") + tile + "?version=1&format=pcd");
+    const PointCloud b = FetchCloud(std::string("/v1/prior/tiles/") + tile + "?version=2&format=pcd");
+    v1.insert(v1.end(), a.begin(), a.end());
+    v2.insert(v2.end(), b.begin(), b.end());
+  }
+  EXPECT_EQ(count_near(v1, kBoxC, 0.5), 0);
+  EXPECT_GT(count_near(v2, kBoxC, 1.0), 10);
+  // Box A's faces towards the cameras (front y = 15 and top) were in plain view: the free
+  // space seen through them removes them, except within th_ch of the ground (Alg. 2 keeps a
+  // prior point that has any current point within th_ch). Far faces may stay.
+  auto count_visible_faces = [](const PointCloud& c, const Box& b) {
+    return std::count_if(c.begin(), c.end(), [&](const Point& p) {
+      const bool front = std::abs(p.y() - b.max.y()) < 0.01, top = std::abs(p.z() - b.max.z()) < 0.01;
+      return p.z() > kGroundZ + 2.4 + 0.1 && b.Distance(p.cast<double>()) < 0.01 && (front || top);
+    });
+  };
+  EXPECT_GT(count_visible_faces(v1, kBoxA), 200);
+  EXPECT_LT(count_visible_faces(v2, kBoxA), count_visible_faces(v1, kBoxA) / 10);
+  EXPECT_LT(count_near(v2, kBoxA, 0.01), count_near(v1, kBoxA, 0.01));
+  EXPECT_EQ(count_near(v2, kBoxB, 0.01), count_near(v1, kBoxB, 0.01));  // untouched box stays
+  // Refreshed tiles start aggregating afresh: no changes listed for them any more.
+  const Json after = Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&min_confidence=0.7", H(reader_))).second;
+  for (const Json& t : after["tiles"]) {
+    EXPECT_EQ(std::find(tiles.begin(), tiles.end(), t["tile"].get<std::string>()), tiles.end())
+        << t["tile"] << " still lists changes after refresh";
+  }
+
+  // 6. Reclassify with a new threshold is accepted and runs; metrics saw the ingest.
+  auto [st5, rjob] = Call(client_->Post("/v1/admin/jobs", H(admin_), R"({"type":"reclassify","params":{"th_ch_m":2.4}})", "application/json"));
+  ASSERT_EQ(st5, 202);
+  EXPECT_EQ(WaitJob(rjob["job_id"])["state"], "succeeded");
+  const auto metrics = client_->Get("/metrics");
+  ASSERT_TRUE(metrics);
+  EXPECT_NE(metrics->body.find("mapdelta_keyframes_ingested_total 42"), std::string::npos) << metrics->body;
+}
+
+}  // namespace
+}  // namespace mapdelta::server
