@@ -44,6 +44,12 @@ struct Failure {
   }
 };
 
+Eigen::Matrix3d SkewOf(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
 bool IsNewKeyframe(const SE3& last, int64_t last_t, const SE3& now, int64_t t,
                    const KeyframeSelectionConfig& c) {
   return (last.translation() - now.translation()).norm() >= c.min_translation_m ||
@@ -75,13 +81,15 @@ class Backend {
 
   void Finish() {
     while (filtered_in_window_ < raw_.size()) FilterNext();
+    std::vector<std::optional<Matrix6>> covariances;
     {
       StageTimer::Scope t(timer_, "5 fusion (final pass)");
-      const FusionSummary s = fusion_.Optimize(config_.fusion.final_iterations);
+      const FusionSummary s = fusion_.Optimize(config_.fusion.final_iterations,
+                                               Range(first_unemitted_, fusion_.size()), &covariances);
       MD_LOG(kInfo, "fusion final pass: " << s.iterations << " iterations, cost " << s.initial_cost
                                           << " -> " << s.final_cost << ", " << s.seconds << " s");
     }
-    EmitFinal(fusion_.size());
+    EmitFinal(fusion_.size(), covariances);
     for (size_t k = 0; k < fusion_.size(); ++k) {
       result_->vio_T_map_body.push_back({fusion_.t_ns(k), fusion_.OdometryInMap(k)});
       result_->fused_T_map_body.push_back({fusion_.t_ns(k), fusion_.FusedPose(k)});
@@ -150,21 +158,44 @@ class Backend {
       started_ = true;
       result_->startup_refined = true;
     }
-    {
-      StageTimer::Scope t(timer_, "5 fusion (incremental)");
-      fusion_.AddRegistration(k, r.T_map_body, r.covariance);
-      fusion_.Optimize(config_.fusion.incremental_iterations);
-    }
+    // Keyframes that become final with this registration get their covariance from the same
+    // solve.
+    fusion_.AddRegistration(k, r.T_map_body, r.covariance);
     const long lag = config_.fusion.final_lag_keyframes;
     const long limit = std::min<long>(fusion_.LastRegisteredKeyframe() + 1,
                                       static_cast<long>(fusion_.size()) - lag);
-    if (limit > 0) EmitFinal(static_cast<size_t>(limit));
+    const size_t end = limit > static_cast<long>(first_unemitted_) ? static_cast<size_t>(limit) : first_unemitted_;
+    std::vector<std::optional<Matrix6>> covariances;
+    {
+      StageTimer::Scope t(timer_, "5 fusion (incremental)");
+      fusion_.Optimize(config_.fusion.incremental_iterations, Range(first_unemitted_, end), &covariances);
+    }
+    EmitFinal(end, covariances);
+  }
+
+  static std::vector<size_t> Range(size_t begin, size_t end) {
+    std::vector<size_t> out;
+    for (size_t k = begin; k < end; ++k) out.push_back(k);
+    return out;
   }
 
   // Sends keyframes [first_unemitted_, end) downstream with their fused poses.
-  void EmitFinal(size_t end) {
+  void EmitFinal(size_t end, const std::vector<std::optional<Matrix6>>& covariances) {
+    const size_t begin = first_unemitted_;
     while (first_unemitted_ < end) {
       FinalKeyframe f;
+      const size_t i = first_unemitted_ - begin;
+      if (i < covariances.size() && covariances[i]) {
+        // Body covariance to camera: T_map_cam = T_map_body T_body_cam, right perturbations
+        // transform by the adjoint of T_cam_body.
+        const SE3 T_cam_body = rig_.T_body_cam0.inverse();
+        const Eigen::Matrix3d R = T_cam_body.linear();
+        Matrix6 Ad = Matrix6::Zero();
+        Ad.topLeftCorner<3, 3>() = R;
+        Ad.bottomRightCorner<3, 3>() = R;
+        Ad.bottomLeftCorner<3, 3>() = -R * SkewOf(rig_.T_body_cam0.translation());
+        f.keyframe.covariance = Ad * *covariances[i] * Ad.transpose();
+      }
       f.keyframe.t_ns = fusion_.t_ns(first_unemitted_);
       f.keyframe.T_map_cam = fusion_.FusedPose(first_unemitted_) * rig_.T_body_cam0;
       f.keyframe.depth = std::move(filtered_.front());

@@ -185,7 +185,48 @@ SE3 PoseFusion::OdometryInMap(size_t k) const {
   return T_map_body0_ * keyframes_.at(0).T_odom_body.inverse() * keyframes_.at(k).T_odom_body;
 }
 
-FusionSummary PoseFusion::Optimize(int max_iterations) {
+void PoseFusion::ComputeCovariances(ceres::Problem* problem, const std::vector<size_t>& which,
+                                    std::vector<std::optional<Matrix6>>* out) {
+  ceres::Covariance::Options options;
+  options.algorithm_type = ceres::SPARSE_QR;
+  options.num_threads = 1;
+  ceres::Covariance covariance(options);
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (size_t k : which) {
+    if (k >= keyframes_.size()) continue;
+    const auto& s = keyframes_[k];
+    blocks.push_back({s.q, s.q});
+    blocks.push_back({s.q, s.p});
+    blocks.push_back({s.p, s.p});
+  }
+  if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
+  for (size_t i = 0; i < which.size(); ++i) {
+    if (which[i] >= keyframes_.size()) continue;
+    const auto& s = keyframes_[which[i]];
+    double qq[9], qp[9], pp[9];
+    if (!covariance.GetCovarianceBlockInTangentSpace(s.q, s.q, qq) ||
+        !covariance.GetCovarianceBlockInTangentSpace(s.q, s.p, qp) ||
+        !covariance.GetCovarianceBlockInTangentSpace(s.p, s.p, pp)) {
+      continue;
+    }
+    // Ceres' tangent: q (+) d = [cos|d|, sin|d| d/|d|] q, i.e. a LEFT rotation by the
+    // rotation vector 2d (map frame); p (+) d = p + d.
+    Matrix6 left;
+    left.topLeftCorner<3, 3>() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(qq);
+    left.topRightCorner<3, 3>() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(qp);
+    left.bottomLeftCorner<3, 3>() = left.topRightCorner<3, 3>().transpose();
+    left.bottomRightCorner<3, 3>() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pp);
+    // To our right perturbation (R Exp(w), t + R v): w = R^T (2 d_rot), v = R^T d_pos.
+    const Eigen::Matrix3d Rt = FusedPose(which[i]).linear().transpose();
+    Matrix6 J = Matrix6::Zero();
+    J.topLeftCorner<3, 3>() = 2.0 * Rt;
+    J.bottomRightCorner<3, 3>() = Rt;
+    (*out)[i] = J * left * J.transpose();
+  }
+}
+
+FusionSummary PoseFusion::Optimize(int max_iterations, const std::vector<size_t>& covariance_of,
+                                   std::vector<std::optional<Matrix6>>* covariances) {
   FusionSummary summary;
   if (keyframes_.empty()) return summary;
   const auto start = std::chrono::steady_clock::now();
@@ -264,6 +305,10 @@ FusionSummary PoseFusion::Optimize(int max_iterations) {
   summary.initial_cost = result.initial_cost;
   summary.final_cost = result.final_cost;
   summary.usable = result.IsSolutionUsable();
+  if (covariances != nullptr) {
+    covariances->assign(covariance_of.size(), std::nullopt);
+    ComputeCovariances(&problem, covariance_of, covariances);
+  }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }

@@ -172,5 +172,33 @@ TEST(PoseFusion, ExactMeasurementsAreReproduced) {
   }
 }
 
+TEST(PoseFusion, CovarianceUsesOurRightPerturbationConvention) {
+  // One keyframe constrained only by its prior: the posterior covariance is the prior's, in
+  // our convention, whatever the rotation (checks Ceres' left half-angle tangent conversion).
+  Matrix6 A = Matrix6::Random();
+  const Matrix6 prior_cov = A * A.transpose() * 0.01 + Matrix6::Identity() * 1e-3;
+  SE3 T = SE3::Identity();
+  T.linear() = ExpSO3(Eigen::Vector3d(0.3, -1.2, 2.0));
+  T.translation() = Eigen::Vector3d(5, -3, 2);
+  PoseFusion fusion(FusionConfig{});
+  fusion.SetInitialPose(T, prior_cov);
+  fusion.AddKeyframe(0, SE3::Identity());
+  std::vector<std::optional<Matrix6>> cov;
+  fusion.Optimize(10, {0}, &cov);
+  ASSERT_EQ(cov.size(), 1u);
+  ASSERT_TRUE(cov[0].has_value());
+  EXPECT_LT((*cov[0] - prior_cov).norm(), 1e-6 * prior_cov.norm()) << *cov[0] << "\n\n" << prior_cov;
+
+  // A chain: uncertainty grows with distance from the constrained start.
+  for (int k = 1; k < 10; ++k) {
+    SE3 step = SE3::Identity();
+    step.translation() = Eigen::Vector3d(k, 0, 0);
+    fusion.AddKeyframe(k, step);
+  }
+  fusion.Optimize(10, {1, 9}, &cov);
+  ASSERT_TRUE(cov[0] && cov[1]);
+  EXPECT_GT(cov[1]->trace(), cov[0]->trace());
+}
+
 }  // namespace
 }  // namespace mapdelta::client

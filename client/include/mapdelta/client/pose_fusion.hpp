@@ -19,6 +19,10 @@
 #include "mapdelta/client/config.hpp"
 #include "mapdelta/common/pose.hpp"
 
+namespace ceres {
+class Problem;
+}
+
 namespace mapdelta::client {
 
 using Matrix6 = Eigen::Matrix<double, 6, 6>;
@@ -48,8 +52,12 @@ class PoseFusion {
   void AddRegistration(size_t k, const SE3& T_map_body, const Matrix6& covariance);
 
   // Solves with warm start from the current estimate (incremental runs use few iterations,
-  // the final pass many).
-  FusionSummary Optimize(int max_iterations);
+  // the final pass many). If covariance_of is given, also computes the marginal covariance of
+  // those keyframes' T_map_body at the solution (6x6, [rotation, translation], right
+  // perturbation) into *covariances; a keyframe whose covariance cannot be computed
+  // (rank-deficient problem) gets nullopt.
+  FusionSummary Optimize(int max_iterations, const std::vector<size_t>& covariance_of = {},
+                         std::vector<std::optional<Matrix6>>* covariances = nullptr);
 
   size_t size() const { return keyframes_.size(); }
   size_t num_registrations() const { return registrations_.size(); }
@@ -76,6 +84,8 @@ class PoseFusion {
   };
 
   void SetState(KeyframeState* state, const SE3& T) const;
+  void ComputeCovariances(ceres::Problem* problem, const std::vector<size_t>& which,
+                          std::vector<std::optional<Matrix6>>* out);
 
   FusionConfig config_;
   bool has_initial_ = false;
