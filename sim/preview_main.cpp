@@ -55,8 +55,7 @@ int main(int argc, char** argv) {
     cam.width = c.width; cam.height = c.height; cam.fx = c.fx; cam.fy = c.fy; cam.cx = c.cx; cam.cy = c.cy;
     for (const std::string& name : c.sequences) {
       const SequencePlan plan = PlanSequence(c, scenes, name);
-      Scene scene = plan.scene->scene;
-      if (plan.variant == "dark") scene.lighting = DarkLighting();
+      const Scene scene = RenderScene(plan);
       const EmbreeCaster caster(scene);
       for (double t : times) {
         const SE3 T = plan.trajectory.Evaluate(std::min(t, plan.duration_s)).T_map_body * BodyToCam0();

@@ -1,5 +1,6 @@
 #include "mapdelta/sim/cloud_sampler.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
@@ -15,13 +16,18 @@ class BoxIndex {
     for (const Object& o : s.objects) Add(o);
     if (extra) Add(*extra);
   }
-  bool Buried(const Eigen::Vector3d& p, const Box* self) const {
-    const auto it = cells_.find(Key(p.x(), p.y()));
-    if (it == cells_.end()) return false;
-    for (const Box* b : it->second) {
-      if (b != self && b->ContainsStrict(p, 1e-4) ) return true;
+  // Boxes in the cells that b's footprint touches (may repeat; callers filter by overlap).
+  std::vector<const Box*> Near(const Box& b) const {
+    std::vector<const Box*> out;
+    for (double x = std::floor(b.min.x() / kCell); x <= std::floor(b.max.x() / kCell); ++x) {
+      for (double y = std::floor(b.min.y() / kCell); y <= std::floor(b.max.y() / kCell); ++y) {
+        const auto it = cells_.find(Key(x * kCell + 0.5 * kCell, y * kCell + 0.5 * kCell));
+        if (it != cells_.end()) out.insert(out.end(), it->second.begin(), it->second.end());
+      }
     }
-    return false;
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
   }
   bool UnderSomething(double x, double y) const {
     const auto it = cells_.find(Key(x, y));
@@ -50,8 +56,17 @@ class BoxIndex {
 };
 
 // Samples one face (axis `axis` fixed at `value`) of box b on a grid of step h.
-void SampleFace(const Box& b, int axis, double value, double h, const BoxIndex& index, PointCloud* out) {
+void SampleFace(const Box& b, int axis, double value, double h, const std::vector<const Box*>& others,
+                PointCloud* out) {
   const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+  // Only boxes overlapping this face can bury part of it.
+  std::vector<const Box*> near;
+  for (const Box* o : others) {
+    if (o == &b) continue;
+    bool overlap = o->min[axis] < value && value < o->max[axis];
+    for (int a : {a1, a2}) overlap = overlap && o->min[a] < b.max[a] && b.min[a] < o->max[a];
+    if (overlap) near.push_back(o);
+  }
   const int n1 = std::max(1, static_cast<int>(std::ceil((b.max[a1] - b.min[a1]) / h)));
   const int n2 = std::max(1, static_cast<int>(std::ceil((b.max[a2] - b.min[a2]) / h)));
   for (int i = 0; i <= n1; ++i) {
@@ -60,17 +75,20 @@ void SampleFace(const Box& b, int axis, double value, double h, const BoxIndex& 
       p[axis] = value;
       p[a1] = b.min[a1] + (b.max[a1] - b.min[a1]) * i / n1;
       p[a2] = b.min[a2] + (b.max[a2] - b.min[a2]) * j / n2;
-      if (!index.Buried(p, &b)) out->push_back(p.cast<float>());
+      bool buried = false;
+      for (const Box* o : near) buried = buried || o->ContainsStrict(p, 1e-4);
+      if (!buried) out->push_back(p.cast<float>());
     }
   }
 }
 
 void SampleObject(const Object& o, double h, const BoxIndex& index, PointCloud* out) {
   for (const Box& b : o.boxes) {
+    const std::vector<const Box*> others = index.Near(b);
     for (int axis = 0; axis < 3; ++axis) {
       // Bottom faces on the ground are never seen.
-      if (axis != 2 || b.min.z() > 1e-3) SampleFace(b, axis, b.min[axis], h, index, out);
-      SampleFace(b, axis, b.max[axis], h, index, out);
+      if (axis != 2 || b.min.z() > 1e-3) SampleFace(b, axis, b.min[axis], h, others, out);
+      SampleFace(b, axis, b.max[axis], h, others, out);
     }
   }
 }

@@ -131,11 +131,8 @@ SequencePlan PlanSequence(const SimConfig& c, const Scenes& scenes, const std::s
   return plan;
 }
 
-void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::string& name, const std::string& out_dir,
-                      const ProgressFn& progress, size_t max_frames) {
-  const SequencePlan plan = PlanSequence(c, scenes, name);
+Scene RenderScene(const SequencePlan& plan) {
   Scene scene = plan.scene->scene;
-  nlohmann::json mirrors = nlohmann::json::array();
   if (plan.variant == "mirror") {
     const Box removed = plan.scene->changes.front().object.Bounds();
     // A facade mirror beside the route, where the MAV passes closest to the removed building.
@@ -144,12 +141,22 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
       const Eigen::Vector2d p = plan.trajectory.Evaluate(t).p_map.head<2>();
       if ((p - removed.Center().head<2>()).norm() < (near - removed.Center().head<2>()).norm()) near = p;
     }
-    for (const Object& m : MakeMirrors(&scene, removed, near)) {
-      const Box b = m.Bounds();
-      mirrors.push_back({{"id", m.id}, {"min", {b.min.x(), b.min.y(), b.min.z()}}, {"max", {b.max.x(), b.max.y(), b.max.z()}}});
-    }
+    MakeMirrors(&scene, removed, near);
   }
   if (plan.variant == "dark") scene.lighting = DarkLighting();
+  return scene;
+}
+
+void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::string& name, const std::string& out_dir,
+                      const ProgressFn& progress, size_t max_frames) {
+  const SequencePlan plan = PlanSequence(c, scenes, name);
+  const Scene scene = RenderScene(plan);
+  nlohmann::json mirrors = nlohmann::json::array();
+  for (const Object& m : scene.objects) {
+    if (m.kind != "mirror") continue;
+    const Box b = m.Bounds();
+    mirrors.push_back({{"id", m.id}, {"min", {b.min.x(), b.min.y(), b.min.z()}}, {"max", {b.max.x(), b.max.y(), b.max.z()}}});
+  }
   const EmbreeCaster caster(scene);
   const NoiseParams noise = NoiseFor(c.noise);
 

@@ -30,6 +30,20 @@ inline float CellValue(int32_t cx, int32_t cy, uint32_t seed, float cell, float 
 }
 inline int32_t Cell(float x, float size) { return static_cast<int32_t>(std::floor(x / size)); }
 
+// Box-filtered periodic pulse (see FilteredPulse); inline because facades call it ~10 times.
+inline float Pulse(float x, float period, float on, float w) {
+  const float inv = 1.f / period;
+  if (w < 1e-4f * period) {
+    const float t = x - std::floor(x * inv) * period;
+    return t < on ? 1.f : 0.f;
+  }
+  const float a = x - 0.5f * w, b = x + 0.5f * w;
+  const float na = std::floor(a * inv), nb = std::floor(b * inv);
+  const float ia = na * on + std::min(a - na * period, on);
+  const float ib = nb * on + std::min(b - nb * period, on);
+  return Clamp01((ib - ia) / w);
+}
+
 float Asphalt(float x, float y, float fp) {
   return 0.24f + 0.30f * BandLimitedNoise(x, y, 0.35f, 6, 0.62f, fp, 11u) +
          0.10f * CellValue(Cell(x, 2.3f), Cell(y, 1.7f), 12u, 2.0f, fp);  // patched surface
@@ -37,7 +51,7 @@ float Asphalt(float x, float y, float fp) {
 
 float Paving(float x, float y, float fp) {
   const float tile = 0.6f;
-  const float grout = std::max(FilteredPulse(x, tile, 0.04f, fp), FilteredPulse(y, tile, 0.04f, fp));
+  const float grout = std::max(Pulse(x, tile, 0.04f, fp), Pulse(y, tile, 0.04f, fp));
   const float t = 0.56f + 0.16f * CellValue(Cell(x, tile), Cell(y, tile), 21u, tile, fp) +
                   0.15f * BandLimitedNoise(x, y, 0.5f, 5, 0.55f, fp, 22u);
   return t * (1.f - 0.45f * grout);
@@ -64,13 +78,13 @@ float Ground(const Scene& s, float x, float y, float fp) {
   float paint = 0.f;
   if (road_y && !road_x && dy > hw) {
     // Dashed centre line, edge lines, and a zebra crossing in front of each intersection.
-    paint = std::max(paint, FilteredPulse(sx + 0.075f, 1e3f, 0.15f, fp) * FilteredPulse(y, 6.f, 3.f, fp));
-    paint = std::max(paint, FilteredPulse(dx - road + 0.45f, 1e3f, 0.15f, fp));
-    if (dy < hw + 3.f) paint = std::max(paint, FilteredPulse(sx + 50.f, 1.0f, 0.5f, fp));
+    paint = std::max(paint, Pulse(sx + 0.075f, 1e3f, 0.15f, fp) * Pulse(y, 6.f, 3.f, fp));
+    paint = std::max(paint, Pulse(dx - road + 0.45f, 1e3f, 0.15f, fp));
+    if (dy < hw + 3.f) paint = std::max(paint, Pulse(sx + 50.f, 1.0f, 0.5f, fp));
   } else if (road_x && !road_y && dx > hw) {
-    paint = std::max(paint, FilteredPulse(sy + 0.075f, 1e3f, 0.15f, fp) * FilteredPulse(x, 6.f, 3.f, fp));
-    paint = std::max(paint, FilteredPulse(dy - road + 0.45f, 1e3f, 0.15f, fp));
-    if (dx < hw + 3.f) paint = std::max(paint, FilteredPulse(sy + 50.f, 1.0f, 0.5f, fp));
+    paint = std::max(paint, Pulse(sy + 0.075f, 1e3f, 0.15f, fp) * Pulse(x, 6.f, 3.f, fp));
+    paint = std::max(paint, Pulse(dy - road + 0.45f, 1e3f, 0.15f, fp));
+    if (dx < hw + 3.f) paint = std::max(paint, Pulse(sy + 50.f, 1.0f, 0.5f, fp));
   }
   return a + (0.85f - a) * paint;
 }
@@ -84,11 +98,11 @@ float Facade(const Object& o, float u, float v, float fp) {
     const float bw = 0.25f, bh = 0.075f;
     const int32_t row = Cell(v, bh);
     const float shift = (row & 1) ? 0.5f * bw : 0.f;
-    const float mortar = std::max(FilteredPulse(v, bh, 0.012f, fp), FilteredPulse(u + shift, bw, 0.012f, fp));
+    const float mortar = std::max(Pulse(v, bh, 0.012f, fp), Pulse(u + shift, bw, 0.012f, fp));
     wall = h * (1.f + 0.25f * CellValue(Cell(u + shift, bw), row, seed, bh, fp)) * (1.f - 0.3f * mortar);
     wall *= 1.f + 0.5f * BandLimitedNoise(u, v, 0.4f, 4, 0.5f, fp, seed + 1);
   } else if (o.material == Material::kConcrete) {
-    const float joint = std::max(FilteredPulse(u, 1.5f, 0.03f, fp), FilteredPulse(v, 1.6f, 0.03f, fp));
+    const float joint = std::max(Pulse(u, 1.5f, 0.03f, fp), Pulse(v, 1.6f, 0.03f, fp));
     wall = h * (1.f + 0.35f * CellValue(Cell(u, 1.5f), Cell(v, 1.6f), seed, 1.5f, fp)) * (1.f - 0.4f * joint);
     wall *= 1.f + 0.6f * BandLimitedNoise(u, v, 0.6f, 5, 0.6f, fp, seed + 1);
   } else {
@@ -96,17 +110,17 @@ float Facade(const Object& o, float u, float v, float fp) {
   }
   // Cornice line at each floor.
   const float floor_h = 3.2f;
-  wall *= 1.f - 0.25f * FilteredPulse(v - 0.1f, floor_h, 0.2f, fp);
+  wall *= 1.f - 0.25f * Pulse(v - 0.1f, floor_h, 0.2f, fp);
   // Windows: column pitch and size vary per building.
   const float pitch = 2.6f + 1.2f * Unit(Hash32(1, 2, seed));
   const float ww = pitch * (0.45f + 0.2f * Unit(Hash32(3, 4, seed)));
   const float wh = 1.4f + 0.5f * Unit(Hash32(5, 6, seed));
   const float sill = 0.9f;
   if (v < 2.5f) return wall;  // no windows at street level: doors would need their own pattern
-  const float cu = FilteredPulse(u - 0.5f * (pitch - ww), pitch, ww, fp);
-  const float cv = FilteredPulse(v - sill, floor_h, wh, fp);
-  const float frame_u = FilteredPulse(u - 0.5f * (pitch - ww) + 0.08f, pitch, ww + 0.16f, fp);
-  const float frame_v = FilteredPulse(v - sill + 0.08f, floor_h, wh + 0.16f, fp);
+  const float cu = Pulse(u - 0.5f * (pitch - ww), pitch, ww, fp);
+  const float cv = Pulse(v - sill, floor_h, wh, fp);
+  const float frame_u = Pulse(u - 0.5f * (pitch - ww) + 0.08f, pitch, ww + 0.16f, fp);
+  const float frame_v = Pulse(v - sill + 0.08f, floor_h, wh + 0.16f, fp);
   const float glass = 0.10f + 0.22f * Unit(Hash32(Cell(u - 0.5f * (pitch - ww), pitch), Cell(v - sill, floor_h), seed + 7)) +
                       0.08f * Clamp01((std::fmod(std::abs(v - sill), floor_h)) / wh);
   const float frame = 0.8f;
@@ -141,17 +155,7 @@ float BandLimitedNoise(float x, float y, float base_freq, int octaves, float gai
   return norm > 0.f ? sum / norm * 1.6f : 0.f;
 }
 
-float FilteredPulse(float x, float period, float on, float w) {
-  auto integral = [&](float t) {
-    const float n = std::floor(t / period);
-    return n * on + std::min(t - n * period, on);
-  };
-  if (w < 1e-4f * period) {
-    const float t = x - std::floor(x / period) * period;
-    return t < on ? 1.f : 0.f;
-  }
-  return Clamp01((integral(x + 0.5f * w) - integral(x - 0.5f * w)) / w);
-}
+float FilteredPulse(float x, float period, float on, float w) { return Pulse(x, period, on, w); }
 
 float SurfaceAlbedo(const Scene& s, const Hit& hit, const Eigen::Vector3f& p, float fp) {
   if (hit.object < 0) return Clamp01(Ground(s, p.x(), p.y(), fp));
@@ -172,7 +176,7 @@ float SurfaceAlbedo(const Scene& s, const Hit& hit, const Eigen::Vector3f& p, fl
       }
       return Clamp01(Facade(o, u, v, fp));
     case Material::kCar: {
-      const float glass = FilteredPulse(v - 0.95f, 10.f, 0.4f, fp);
+      const float glass = Pulse(v - 0.95f, 10.f, 0.4f, fp);
       const float body = o.albedo * (1.f + 0.2f * BandLimitedNoise(u, v, 2.f, 3, 0.5f, fp, seed));
       return Clamp01(body + (0.12f - body) * glass);
     }

@@ -31,6 +31,8 @@ struct SequencePlan {
   double length_m = 0;     // path length over [0, duration_s]
 };
 SequencePlan PlanSequence(const SimConfig& config, const Scenes& scenes, const std::string& name);
+// The scene a sequence is rendered in: its changed scene plus the variant's mirrors or lighting.
+Scene RenderScene(const SequencePlan& plan);
 
 // Throws Error on invalid config or I/O failure. Output is a function of config alone
 // (byte-identical for the same config, whatever the thread count).
