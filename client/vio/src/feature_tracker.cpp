@@ -152,8 +152,8 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   std::vector<unsigned char> status, status_back;
   std::vector<float> err;
   const cv::Size window(config_.klt_window_px, config_.klt_window_px);
-  if (!getenv("NOREFINE")) cv::calcOpticalFlowPyrLK(left, right, candidates, refined, status, err, window, 1, {},
-                           cv::OPTFLOW_USE_INITIAL_FLOW); else status.assign(candidates.size(), 1);
+  cv::calcOpticalFlowPyrLK(left, right, candidates, refined, status, err, window, 1, {},
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
   back = candidates;
   cv::calcOpticalFlowPyrLK(right, left, refined, back, status_back, err, window, 1, {},
                            cv::OPTFLOW_USE_INITIAL_FLOW);
