@@ -58,13 +58,34 @@ export async function runPageChecks({ baseUrl, adminToken, expected, outDir, scr
 
     // Observed area: the tile's octree (.bt from the server) drawn as a cyan ground footprint
     // (alpha 110/255 over the dark background gives about rgb(15, 99, 111)).
+    const btResponse = page.waitForResponse((r) => r.url().endsWith(`/v1/observed/tiles/${expected.tile}.bt`), { timeout: 10000 });
     await page.check('#show-observed');
-    await page.waitForResponse((r) => r.url().endsWith(`/v1/observed/tiles/${expected.tile}.bt`), { timeout: 10000 });
+    await btResponse;
     await page.waitForTimeout(300);
     const obs = await canvasColourCounts(page, '#view3d', { observed: [15, 99, 111] }, 30);
     log(`observed footprint pixels: ${obs.observed}`);
     check(obs.observed > 500, `observed footprint drawn (${obs.observed} px)`);
     await page.uncheck('#show-observed');
+
+    // Only tiles in view are requested: pan the top view west, away from the tile; the list
+    // empties and the request's bbox excludes it. Pan back: the tile is requested again.
+    const tv = await page.locator('#topview').boundingBox();
+    const drag = async (from, to) => {
+      const req = page.waitForRequest((r) => r.url().includes('/v1/changes/tiles?'), { timeout: 10000 });
+      await page.mouse.move(from, tv.y + tv.height / 2);
+      await page.mouse.down();
+      await page.mouse.move(to, tv.y + tv.height / 2, { steps: 8 });
+      await page.mouse.up();
+      return new URL((await req).url()).searchParams.get('bbox').split(',').map(Number);
+    };
+    const away = await drag(tv.x + 10, tv.x + tv.width - 10);
+    await page.waitForFunction(() => document.querySelector('#tile-list tbody').children.length === 0, null, { timeout: 10000 });
+    log(`panned west: bbox requested ${away.join(',')}, list empty`);
+    check(away[2] < 50, `the panned view's request excludes tile x >= 50 (bbox ${away.join(',')})`);
+    const back = await drag(tv.x + tv.width - 10, tv.x + 10);
+    await row.waitFor({ timeout: 10000 });
+    log(`panned back: bbox requested ${back.join(',')}, ${expected.tile} listed again`);
+    check(back[0] < 100 && back[2] > 50, `the view back over the tile requests it (bbox ${back.join(',')})`);
 
     // 3. Admin refresh of that tile: live job status to a final state, new prior version.
     await page.click('#refresh-tile');
@@ -93,18 +114,6 @@ export async function runPageChecks({ baseUrl, adminToken, expected, outDir, scr
     check(before === expected.prior_points_before, `before = API v${expected.prior_version} count ${expected.prior_points_before}`);
     check(after !== before, 'refresh changed the tile\'s prior points');
     if (screenshots.before) await page.screenshot({ path: screenshots.before });
-    // 5. Only tiles in view are requested: pan the top view 150 m west, away from the tile.
-    const requested = [];
-    page.on('request', (r) => { if (r.url().includes('/v1/changes/tiles?')) requested.push(new URL(r.url()).searchParams.get('bbox')); });
-    const tv = await page.locator('#topview').boundingBox();
-    await page.mouse.move(tv.x + 10, tv.y + tv.height / 2);
-    await page.mouse.down();
-    await page.mouse.move(tv.x + tv.width - 10, tv.y + tv.height / 2, { steps: 8 });
-    await page.mouse.up();
-    await page.waitForFunction(() => document.querySelector('#tile-list tbody').children.length === 0, null, { timeout: 10000 });
-    const last = requested.at(-1)?.split(',').map(Number);
-    log(`after panning west: bbox requested ${requested.at(-1)}, list empty`);
-    check(last && last[2] < 50, `the panned view's request excludes tile x >= 50 (bbox ${requested.at(-1)})`);
     check(errors.length === 0, `no page errors (${errors.join('; ')})`);
     return { before, after, pixels: px };
   } finally {
