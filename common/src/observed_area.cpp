@@ -1,10 +1,10 @@
 #include "mapdelta/common/observed_area.hpp"
 
 #include <cmath>
+#include <unordered_map>
 #include <vector>
 
 #include "mapdelta/common/error.hpp"
-#include "mapdelta/common/voxel_grid.hpp"
 #include "observed_area_impl.hpp"
 
 namespace mapdelta {
@@ -30,12 +30,52 @@ void CheckParams(const PinholeCamera& camera, const DepthImage& depth, const Obs
 
 octomap::point3d ToOcto(const Point& p) { return {p.x(), p.y(), p.z()}; }
 
+// The end-point prefilter: one centroid per cubic voxel of edge `leaf`. Neighbouring pixels
+// mostly land in the same voxel, so the last voxel is cached and the hash map is consulted
+// only when the voxel changes (about 10x fewer look-ups than a plain voxel grid).
+class EndPointFilter {
+ public:
+  explicit EndPointFilter(float leaf) : inv_leaf_(1.f / leaf) { slot_of_key_.reserve(8192); }
+  void Add(const Point& p) {
+    const Eigen::Vector3f scaled = (p * inv_leaf_).array().floor();
+    if (!scaled.allFinite() || scaled.cwiseAbs().maxCoeff() >= (1 << 20)) return;
+    const auto coord = [](float v) { return static_cast<uint64_t>(static_cast<int64_t>(v) + (1 << 20)); };
+    const uint64_t key = (coord(scaled.x()) << 42) | (coord(scaled.y()) << 21) | coord(scaled.z());
+    if (!has_last_ || key != last_key_) {
+      const auto [it, inserted] = slot_of_key_.try_emplace(key, sums_.size());
+      if (inserted) {
+        sums_.emplace_back(Eigen::Vector3d::Zero());
+        counts_.push_back(0);
+      }
+      last_key_ = key;
+      last_slot_ = it->second;
+      has_last_ = true;
+    }
+    sums_[last_slot_] += p.cast<double>();
+    ++counts_[last_slot_];
+  }
+  PointCloud Centroids() const {
+    PointCloud out(sums_.size());
+    for (size_t i = 0; i < sums_.size(); ++i) out[i] = (sums_[i] / counts_[i]).cast<float>();
+    return out;
+  }
+
+ private:
+  float inv_leaf_;
+  std::unordered_map<uint64_t, size_t> slot_of_key_;
+  std::vector<Eigen::Vector3d> sums_;
+  std::vector<uint32_t> counts_;
+  bool has_last_ = false;
+  uint64_t last_key_ = 0;
+  size_t last_slot_ = 0;
+};
+
 // Keys of the voxels each ray passes through (excluding its end voxel), in parallel: OctoMap's
 // own OpenMP path does nothing in Debian's build (see DESIGN.md), and computeRayKeys is const.
 octomap::KeySet RayKeys(const octomap::OcTree& tree, const octomap::point3d& origin,
                         const PointCloud& ends) {
   octomap::KeySet all;
-#pragma omp parallel
+#pragma omp parallel if (ends.size() > 4096)
   {
     octomap::KeySet local;
     octomap::KeyRay ray;
@@ -72,21 +112,28 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
   if (!IsValidPose(T_map_cam, 1e-4)) {
     throw Error(ErrorCode::kInvalidArgument, "observed area: T_map_cam is not a valid rigid transform");
   }
-  // 1. End points in the map frame: hits (valid depth below th_d) and free-ray ends (depth th_f).
+  // 1-2. End points in the map frame, hits (valid depth below th_d) and free-ray ends (depth
+  //      th_f), reduced on the fly to one centroid per prefilter voxel: neighbouring pixels'
+  //      rays cross the same voxels.
   const Eigen::Isometry3f T = T_map_cam.cast<float>();
-  PointCloud hits, free_ends;
+  const float inv_fx = static_cast<float>(1.0 / camera.fx), inv_fy = static_cast<float>(1.0 / camera.fy);
+  const float cx = static_cast<float>(camera.cx), cy = static_cast<float>(camera.cy);
+  const float max_depth = static_cast<float>(params.max_depth_m);
+  const float free_depth = static_cast<float>(params.free_ray_m);
+  EndPointFilter hit_filter(static_cast<float>(params.prefilter_voxel_m));
+  EndPointFilter free_filter(static_cast<float>(params.prefilter_voxel_m));
   for (int v = 0; v < camera.height; v += params.pixel_stride) {
+    const float y = (static_cast<float>(v) - cy) * inv_fy;
     for (int u = 0; u < camera.width; u += params.pixel_stride) {
       const float d = depth.at(u, v);
-      const bool hit = std::isfinite(d) && d > 0.f && d < params.max_depth_m;
-      const double z = hit ? d : params.free_ray_m;
-      const Eigen::Vector3d p_cam = camera.BackProject(u, v, z);
-      (hit ? hits : free_ends).push_back(T * p_cam.cast<float>());
+      const bool hit = std::isfinite(d) && d > 0.f && d < max_depth;
+      const float z = hit ? d : free_depth;
+      const Point p_map = T * Point((static_cast<float>(u) - cx) * inv_fx * z, y * z, z);
+      (hit ? hit_filter : free_filter).Add(p_map);
     }
   }
-  // 2. One end point per prefilter voxel: neighbouring pixels' rays cross the same voxels.
-  hits = VoxelDownsample(hits, static_cast<float>(params.prefilter_voxel_m));
-  free_ends = VoxelDownsample(free_ends, static_cast<float>(params.prefilter_voxel_m));
+  const PointCloud hits = hit_filter.Centroids();
+  const PointCloud free_ends = free_filter.Centroids();
 
   // 3. Voxel keys: end voxels of hits are occupied; all other traversed voxels (and the end
   //    voxels of free rays) are free, unless some hit ended there (as OctoMap's discretized
