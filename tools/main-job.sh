@@ -15,6 +15,7 @@ usage: bash tools/main-job.sh [options]
   --seed N           dataset and noise seed (default 1)
   --noise NAME       sensor noise: none | small | big (default small)
   --sequences LIST   comma-separated sequences to drive (default S1_01,S2_01)
+  --dataset DIR      use this already generated dataset instead of generating one
   --json FILE        also write the summary as JSON to FILE (default OUT/summary.json)
   --help             this text
 EOF
@@ -29,6 +30,7 @@ seed=1
 noise=small
 sequences=S1_01,S2_01
 json=""
+dataset=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out=$2; shift 2 ;;
@@ -39,6 +41,7 @@ while [ $# -gt 0 ]; do
     --noise) noise=$2; shift 2 ;;
     --sequences) sequences=$2; shift 2 ;;
     --json) json=$2; shift 2 ;;
+    --dataset) dataset=$2; shift 2 ;;
     --help|-h) usage; exit 0 ;;
     *) echo "main-job: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
@@ -72,24 +75,30 @@ if [ "$do_build" = 1 ]; then
   "$root/deploy/install-deps.sh"
   cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
   cmake --build "$build_dir" -j "$(nproc)" --target mapdelta-sim mapdelta-server mapdelta-client \
-    mapdelta-eval mapdelta-detect
+    mapdelta-vio mapdelta-eval mapdelta-detect
 fi
 sim=$build_dir/sim/mapdelta-sim
 server=$build_dir/server/mapdelta-server
 client=$build_dir/client/mapdelta-client
+vio=$build_dir/client/vio/mapdelta-vio
 eval_tool=$build_dir/tools/mapdelta-eval
 detect=$build_dir/tools/mapdelta-detect
-for bin in "$sim" "$server" "$client" "$eval_tool" "$detect"; do
+for bin in "$sim" "$server" "$client" "$vio" "$eval_tool" "$detect"; do
   [ -x "$bin" ] || { echo "main-job: missing binary $bin (build first)" >&2; exit 1; }
 done
 rm -rf "$out"
 mkdir -p "$out"
 
 # ---------------------------------------------------------------------------------------------
-step "generate the '$preset' dataset (seed $seed, noise $noise)"
-dataset=$out/dataset
-"$sim" --preset "$preset" --out "$dataset" --seed "$seed" --noise "$noise" \
-  --sequences "$sequences"
+if [ -n "$dataset" ]; then
+  step "use the dataset in $dataset"
+  case "$dataset" in /*) ;; *) dataset="$root/$dataset" ;; esac
+else
+  step "generate the '$preset' dataset (seed $seed, noise $noise)"
+  dataset=$out/dataset
+  "$sim" --preset "$preset" --out "$dataset" --seed "$seed" --noise "$noise" \
+    --sequences "$sequences"
+fi
 
 # ---------------------------------------------------------------------------------------------
 step "start the server (SQLite in $out/server) and import the original scene as prior"
@@ -138,8 +147,11 @@ step "drive the vehicles: VIO, stereo depth, temporal filter, GICP to prior tile
 IFS=, read -r -a seq_list <<<"$sequences"
 for seq in "${seq_list[@]}"; do
   echo "--- vehicle on $seq" >&2
-  "$client" run --sequence "$dataset/sequences/$seq" --server "$url" --token "$vehicle_token" \
-    --out "$out/clients/$seq" --vehicle-id "demo-$seq"
+  mkdir -p "$out/clients/$seq"
+  "$vio" --sequence "$dataset/sequences/$seq" --out "$out/clients/$seq/vio_frames.txt" \
+    --log-level warn
+  "$client" run --sequence "$dataset/sequences/$seq" --odometry "$out/clients/$seq/vio_frames.txt" \
+    --server "$url" --token "$vehicle_token" --out "$out/clients/$seq"
 done
 
 # ---------------------------------------------------------------------------------------------
