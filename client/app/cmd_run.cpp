@@ -19,6 +19,9 @@
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/trajectory_io.hpp"
+#ifdef MAPDELTA_CLIENT_HAS_VIO
+#include "mapdelta/client/vio_odometry_source.hpp"
+#endif
 
 namespace mapdelta::client::app {
 namespace fs = std::filesystem;
@@ -28,8 +31,9 @@ const char* kRunUsage =
     "usage: mapdelta-client run --sequence DIR --odometry FILE (--prior FILE | --server URL --token T)\n"
     "                           --out DIR [options]\n"
     "  --sequence DIR      EuRoC-layout sequence (mav0/cam0, cam1, imu0; sensor.yaml)\n"
-    "  --odometry FILE     odometry trajectory T_odom_body (TUM or EuRoC CSV) until the VIO is\n"
-    "                      plugged in; 'gt' uses the sequence's ground truth\n"
+    "  --odometry SRC      'vio': run the stereo-inertial VIO (mapdelta_vio) on the sequence;\n"
+    "                      FILE: a recorded odometry trajectory T_odom_body (TUM or EuRoC CSV);\n"
+    "                      'gt': the sequence's ground truth (for tests)\n"
     "  --prior FILE        prior map (PCD/PLY, map frame), offline mode\n"
     "  --server URL        fetch prior tiles from the server (cached in OUT/prior_cache) and\n"
     "  --token T           upload the session (unless --no-upload)\n"
@@ -104,7 +108,15 @@ int RunPipeline(int argc, char** argv) {
   MD_LOG(kInfo, "effective configuration written to " << out << "/config.yaml");
 
   std::unique_ptr<OdometrySource> odometry;
-  if (args.Get("odometry") == "gt") {
+  std::unique_ptr<EurocSequence> vio_sequence;  // the VIO reads it while the pipeline runs
+  if (args.Get("odometry") == "vio") {
+#ifdef MAPDELTA_CLIENT_HAS_VIO
+    vio_sequence = std::make_unique<EurocSequence>(ReadEurocSequence(args.Get("sequence")));
+    odometry = std::make_unique<VioOdometrySource>(*vio_sequence);
+#else
+    throw Error(ErrorCode::kUnsupported, "--odometry vio: this build has no VIO (client/vio)");
+#endif
+  } else if (args.Get("odometry") == "gt") {
     odometry = std::make_unique<TrajectoryOdometrySource>(ReadEurocSequence(args.Get("sequence")).groundtruth);
   } else {
     odometry = std::make_unique<TrajectoryOdometrySource>(args.Get("odometry"));

@@ -1,0 +1,28 @@
+#pragma once
+// The VIO (mapdelta_vio) behind the client's OdometrySource: feeds it the sequence's IMU
+// samples and every stereo frame in time order, and reports its causal body pose per frame.
+// Built only when mapdelta_vio is part of the build (library mapdelta_client_vio).
+#include <memory>
+
+#include "mapdelta/client/odometry_source.hpp"
+#include "mapdelta/common/euroc.hpp"
+
+namespace mapdelta::client {
+
+class VioOdometrySource : public OdometrySource {
+ public:
+  // The sequence must outlive the source. Throws Error(kUnsupported) for non-rectified rigs.
+  explicit VioOdometrySource(const EurocSequence& sequence);
+  ~VioOdometrySource() override;
+  // Reads the stereo frame at t_ns, runs the VIO; nullopt until it is initialized or when
+  // t_ns is not a stereo frame of the sequence. After a VIO reset the odometry frame
+  // changes: the next sample carries a huge covariance so fusion ignores that step.
+  std::optional<OdometrySample> At(int64_t t_ns) override;
+  int resets() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mapdelta::client
