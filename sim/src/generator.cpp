@@ -193,13 +193,18 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
     const double t = static_cast<double>(stamps[k] - kT0Ns) * 1e-9;
     const SE3 T_map_body = plan.trajectory.Evaluate(t).T_map_body;
     const SE3 poses[2] = {T_map_body * T_body_cam0, T_map_body * T_body_cam1};
+    // Per-thread buffers: the content depends only on k, never on what the thread did before.
+    thread_local RenderedView view;
+    thread_local std::vector<uint8_t> grey;
+    thread_local DepthImage depth;
     for (int ci = 0; ci < 2; ++ci) {
-      const RenderedView view = RenderView(scene, caster, cam, poses[ci], ropt);
+      RenderViewInto(scene, caster, cam, poses[ci], ropt, &view);
       const std::string file = std::to_string(stamps[k]) + ".png";
-      WriteGreyPng((mav / (ci == 0 ? "cam0/data" : "cam1/data") / file).string(), cam.width, cam.height,
-                   ToGrey8(view, noise.image_sigma, HashCombine(seq_key, 2 * k + static_cast<size_t>(ci))));
+      ToGrey8Into(view, noise.image_sigma, HashCombine(seq_key, 2 * k + static_cast<size_t>(ci)), &grey);
+      WriteGreyPng((mav / (ci == 0 ? "cam0/data" : "cam1/data") / file).string(), cam.width, cam.height, grey);
       if (ci == 0 && c.write_depth) {
-        DepthImage depth(cam.width, cam.height);
+        depth.width = cam.width;
+        depth.height = cam.height;
         depth.depth_m = view.depth;
         WriteDepthPng((mav / "depth0/data" / file).string(), depth);
       }
@@ -241,12 +246,11 @@ void GenerateDataset(const SimConfig& c, const std::string& out_dir, const Progr
   const std::pair<const Scene*, const std::vector<Change>*> list[3] = {
       {&scenes.original, nullptr}, {&scenes.s1.scene, &scenes.s1.changes}, {&scenes.s2.scene, &scenes.s2.changes}};
   const std::vector<Change> none;
-  for (size_t i = 0; i < 3; ++i) {
-    if (progress) progress("scene clouds", i, 3);
+  // The three scenes' clouds are independent files: sample them in parallel.
+  ParallelFor(3, std::min(3, ThreadCount(c)), "scene clouds", progress, [&](size_t i) {
     WriteScene(c, *list[i].first, scenes.original, list[i].second ? *list[i].second : none,
                root / "scenes" / list[i].first->name);
-  }
-  if (progress) progress("scene clouds", 3, 3);
+  });
   for (const std::string& name : c.sequences) GenerateSequence(c, scenes, name, out_dir, progress);
 }
 

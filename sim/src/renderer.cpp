@@ -81,10 +81,17 @@ float Trace(const Scene& s, const RayCaster& caster, const RenderOptions& opt, f
 RenderedView RenderView(const Scene& s, const RayCaster& caster, const PinholeCamera& cam,
                         const SE3& T_map_cam, const RenderOptions& opt) {
   RenderedView out;
+  RenderViewInto(s, caster, cam, T_map_cam, opt, &out);
+  return out;
+}
+
+void RenderViewInto(const Scene& s, const RayCaster& caster, const PinholeCamera& cam, const SE3& T_map_cam,
+                    const RenderOptions& opt, RenderedView* out_view) {
+  RenderedView& out = *out_view;
   out.width = cam.width;
   out.height = cam.height;
-  out.intensity.assign(static_cast<size_t>(cam.width) * cam.height, 0.f);
-  out.depth.assign(out.intensity.size(), 0.f);
+  out.intensity.resize(static_cast<size_t>(cam.width) * cam.height);
+  out.depth.resize(out.intensity.size());
   const Eigen::Matrix3f R = T_map_cam.linear().cast<float>();
   const Eigen::Vector3f o = T_map_cam.translation().cast<float>();
   const float exposure = static_cast<float>(s.lighting.exposure);
@@ -101,17 +108,22 @@ RenderedView RenderView(const Scene& s, const RayCaster& caster, const PinholeCa
       out.depth[i] = t;
     }
   }
-  return out;
 }
 
 std::vector<uint8_t> ToGrey8(const RenderedView& view, double sigma, uint64_t noise_key) {
-  std::vector<uint8_t> img(view.intensity.size());
+  std::vector<uint8_t> img;
+  ToGrey8Into(view, sigma, noise_key, &img);
+  return img;
+}
+
+void ToGrey8Into(const RenderedView& view, double sigma, uint64_t noise_key, std::vector<uint8_t>* out) {
+  std::vector<uint8_t>& img = *out;
+  img.resize(view.intensity.size());
   for (size_t i = 0; i < img.size(); ++i) {
     double value = view.intensity[i];
     if (sigma > 0) value += sigma * HashGaussian(HashCombine(noise_key, i));
     img[i] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(value, 0.0, 1.0)));
   }
-  return img;
 }
 
 }  // namespace mapdelta::sim

@@ -26,9 +26,13 @@ struct RenderedView {
 // Renders the view of a camera at T_map_cam (x right, y down, z forward).
 RenderedView RenderView(const Scene& scene, const RayCaster& caster, const PinholeCamera& camera,
                         const SE3& T_map_cam, const RenderOptions& options);
+// Same, reusing out's buffers (large per-frame allocations cost page faults).
+void RenderViewInto(const Scene& scene, const RayCaster& caster, const PinholeCamera& camera,
+                    const SE3& T_map_cam, const RenderOptions& options, RenderedView* out);
 
 // 8-bit grey image: intensity plus gaussian noise of `sigma` (fraction of full scale). The noise
 // of pixel i is a hash of (noise_key, i): independent of thread scheduling.
 std::vector<uint8_t> ToGrey8(const RenderedView& view, double sigma, uint64_t noise_key);
+void ToGrey8Into(const RenderedView& view, double sigma, uint64_t noise_key, std::vector<uint8_t>* out);
 
 }  // namespace mapdelta::sim
