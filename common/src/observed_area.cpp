@@ -1,5 +1,6 @@
 #include "mapdelta/common/observed_area.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 #include <vector>
@@ -126,8 +127,10 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
     const float y = (static_cast<float>(v) - cy) * inv_fy;
     for (int u = 0; u < camera.width; u += params.pixel_stride) {
       const float d = depth.at(u, v);
-      const bool hit = std::isfinite(d) && d > 0.f && d < max_depth;
-      const float z = hit ? d : free_depth;
+      const bool valid = std::isfinite(d) && d > 0.f;
+      const bool hit = valid && d < max_depth;
+      // A depth beyond th_d still says the space before it is free: never cast past it.
+      const float z = hit ? d : (valid ? std::min(d, free_depth) : free_depth);
       const Point p_map = T * Point((static_cast<float>(u) - cx) * inv_fx * z, y * z, z);
       (hit ? hit_filter : free_filter).Add(p_map);
     }

@@ -74,6 +74,20 @@ TEST(ObservedArea, FreeRaysForPixelsWithoutDepthAndBeyondMaxDepth) {
   }
 }
 
+TEST(ObservedArea, FreeRayStopsAtADepthBeyondMaxDepth) {
+  const PinholeCamera camera = SmallCamera();
+  ObservedAreaParams params = Params();
+  params.max_depth_m = 10.0;  // the wall at 15 m is no hit, but the 15 m before it are free
+  params.free_ray_m = 20.0;
+  ObservedArea area(0.4);
+  area.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 15.f), params);
+  std::mt19937 rng(6);
+  for (int i = 0; i < 200; ++i) {
+    EXPECT_TRUE(area.IsObserved(InFrustum(rng, 1.5f, 14.0f)));
+    EXPECT_FALSE(area.IsObserved(InFrustum(rng, 16.5f, 30.0f)));  // not through the wall
+  }
+}
+
 TEST(ObservedArea, PoseMovesTheObservedSpace) {
   const PinholeCamera camera = SmallCamera();
   SE3 T_map_cam = SE3::Identity();

@@ -30,8 +30,9 @@ class ObservedArea {
   ObservedArea& operator=(ObservedArea&&) noexcept;
 
   // Rays from the camera centre to every valid depth < max_depth_m (end voxel occupied, the
-  // rest free), and free rays to depth free_ray_m for pixels with no depth (or depth beyond
-  // max_depth_m, where the first free_ray_m are still known to be free). Throws
+  // rest free), and free rays to depth free_ray_m for pixels with no depth (for a depth beyond
+  // max_depth_m: to min(depth, free_ray_m), space known to be free). Depth is along the optical
+  // axis, so is a free ray's length. End points are voxel-filtered first. Throws
   // Error(kInvalidArgument) when the depth image does not match the camera or params are bad.
   void InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_cam, const DepthImage& depth,
                       const ObservedAreaParams& params);
