@@ -11,6 +11,7 @@
 #include "box_scene.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/trajectory_io.hpp"
 #include "mapdelta/tools/commands.hpp"
 
 namespace mapdelta {
@@ -65,6 +66,26 @@ TEST(Tools, AteCommandPrintsEvoNumbersAndJson) {
             0);
   EXPECT_NE(out.str().find("pairs  2174"), std::string::npos) << out.str();
   EXPECT_NEAR(ReadJson(json)["rmse"].get<double>(), 0.006123163030157227, 1e-9);
+}
+
+TEST(Tools, AteReadsEurocCsvAgainstTum) {
+  const std::string data = std::string(MAPDELTA_TEST_DATA_DIR) + "/tum_fr2_desk/fr2_desk_ORB.txt";
+  const std::string csv = TempDir("tools_euroc") + "/orb.csv";
+  {
+    std::ofstream out(csv);
+    out << "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n";
+    out.precision(12);
+    for (const auto& pose : ReadTrajectory(data)) {
+      const Eigen::Quaterniond q(pose.T.linear());
+      const Eigen::Vector3d t = pose.T.translation();
+      out << pose.t_ns << ',' << t.x() << ',' << t.y() << ',' << t.z() << ',' << q.w() << ',' << q.x()
+          << ',' << q.y() << ',' << q.z() << '\n';
+    }
+  }
+  std::ostringstream out;
+  ASSERT_EQ(tools::RunEvalAte({csv, data, "--align", "none", "--max-dt", "0"}, out), 0);
+  EXPECT_NE(out.str().find("pairs  2893"), std::string::npos) << out.str();
+  EXPECT_NE(out.str().find("max    0\n"), std::string::npos) << out.str();
 }
 
 std::string ErrorOf(const std::function<void()>& run) {
