@@ -26,6 +26,8 @@ HttpServer::HttpServer(MapService& service) : impl_(std::make_unique<Impl>(servi
   s.set_read_timeout(c.read_timeout_s, 0);
   s.set_write_timeout(c.write_timeout_s, 0);
   s.set_keep_alive_max_count(1000);
+  // Idle keep-alive connections hold up a graceful stop this long at most.
+  s.set_keep_alive_timeout(2);
   RegisterRoutes(s, service);
 }
 

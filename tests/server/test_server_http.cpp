@@ -12,6 +12,7 @@
 
 #include "auth.hpp"
 #include "box_scene.hpp"
+#include "changed_scene.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/server/http_server.hpp"
@@ -22,45 +23,7 @@
 namespace mapdelta::server {
 namespace {
 
-using testing::Box;
-using testing::BoxScene;
-
-// The ground sits mid-voxel (octree voxel boundaries are at multiples of 0.8 m), so that
-// rays grazing over it do not mark the ground's own voxels as observed free space.
-constexpr double kGroundZ = -0.4;
-// Boxes (5 m) are taller than th_ch but lower than the 8 m high cameras, so their tops are
-// seen (a top above the camera is only grazed by free rays at voxel resolution, which the
-// method cannot tell from a removal).
-const Box kBoxA{{14, 10, kGroundZ}, {20, 15, 4.6}};   // in the prior, removed in the changed scene
-const Box kBoxB{{2, 10, kGroundZ}, {7, 15, 4.6}};     // in both
-const Box kBoxC{{30, 10, kGroundZ}, {36, 15, 4.6}};   // new in the changed scene
-constexpr double kCameraHeight = 8.0;
-constexpr double kMaxDepth = 50.0;   // th_d of the paper
-constexpr double kPitch = 0.35;      // 20 degrees down
-
-BoxScene PriorScene() {
-  BoxScene s;
-  s.ground.min = Eigen::Vector3f(-30, -10, 0);
-  s.ground.max = Eigen::Vector3f(70, 40, 0);
-  s.ground_z = kGroundZ;
-  s.boxes = {kBoxA, kBoxB};
-  return s;
-}
-BoxScene ChangedScene() {
-  BoxScene s = PriorScene();
-  s.boxes = {kBoxB, kBoxC};
-  return s;
-}
-
-PinholeCamera TestCamera() {
-  PinholeCamera c;
-  c.width = 160;
-  c.height = 90;
-  c.fx = c.fy = 80;
-  c.cx = 80;
-  c.cy = 45;
-  return c;
-}
+using namespace mapdelta::testing;  // NOLINT: the shared test scene
 
 ServerConfig TestConfig(const std::string& db) {
   ServerConfig c;
@@ -74,17 +37,6 @@ ServerConfig TestConfig(const std::string& db) {
   c.pipeline.pixel_stride = 1;
   c.classify.th_ch_m = 2.4;  // the reference evaluation's value
   return c;
-}
-
-std::string PngString(const DepthImage& d) {
-  const auto png = EncodeDepthPng(d);
-  return std::string(png.begin(), png.end());
-}
-
-Json MetaJson(int64_t t_ns, const SE3& T) {
-  const Eigen::Quaterniond q(T.rotation());
-  const Eigen::Vector3d t = T.translation();
-  return Json{{"t_ns", t_ns}, {"T_map_cam", {{"t", {t.x(), t.y(), t.z()}}, {"q", {q.w(), q.x(), q.y(), q.z()}}}}};
 }
 
 class ServerHttpTest : public ::testing::Test {
@@ -152,7 +104,7 @@ class ServerHttpTest : public ::testing::Test {
     const BoxScene scene = ChangedScene();
     int seq = 0;
     for (double x = -5; x <= 45; x += 2.5, ++seq) {
-      const SE3 T = testing::CameraLookingMinusY(x, y_cam, kCameraHeight, kPitch);
+      const SE3 T = CameraLookingMinusY(x, y_cam, kCameraHeight, kPitch);
       const DepthImage depth = scene.Render(TestCamera(), T, kMaxDepth);
       auto [status, body] = Call(PutKeyframe(session, seq, MetaJson(1000000000LL * (seq + 1), T), PngString(depth)));
       ASSERT_EQ(status, 201) << body.dump();
@@ -207,7 +159,7 @@ TEST_F(ServerHttpTest, AuthRolesAnd401Vs403) {
 
 TEST_F(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
   const int64_t s = CreateSession("car-1");
-  const SE3 T = testing::CameraLookingMinusY(0, 25, kCameraHeight, kPitch);
+  const SE3 T = CameraLookingMinusY(0, 25, kCameraHeight, kPitch);
   const std::string png = PngString(ChangedScene().Render(TestCamera(), T, kMaxDepth));
   auto code = [&](const httplib::Result& r) { return Call(r).second["error"].value("code", std::string()); };
   // Malformed JSON and bad fields in session creation.

@@ -1,0 +1,274 @@
+// Process-level tests of the real mapdelta-server binary: the token CLI, SIGKILL during
+// uploads (no acknowledged keyframe lost), SIGKILL during a commit (the job resumes and gives
+// the same per-tile result as an uninterrupted run), SIGTERM (clean exit 0).
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "changed_scene.hpp"
+#include "mapdelta/common/cloud_io.hpp"
+
+#include <httplib.h>  // last: its <resolv.h> defines macros that break Eigen
+
+namespace mapdelta::testing {
+namespace {
+
+using Json = nlohmann::json;
+namespace fs = std::filesystem;
+
+// Runs the CLI to completion and returns its stdout.
+std::string RunCli(const std::string& args, int* exit_code) {
+  const std::string cmd = std::string(MAPDELTA_SERVER_BIN) + " " + args + " 2>/dev/null";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[512];
+  while (pipe && fgets(buf, sizeof(buf), pipe)) out += buf;
+  const int status = pipe ? pclose(pipe) : -1;
+  *exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return out;
+}
+
+// A server child process; reads "listening on HOST:PORT" from its stdout.
+class ServerProcess {
+ public:
+  ServerProcess(const std::string& config, const std::string& log) {
+    int fds[2];
+    EXPECT_EQ(pipe(fds), 0);
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(fds[1], 1);
+      FILE* err = std::fopen(log.c_str(), "a");
+      if (err) dup2(fileno(err), 2);
+      close(fds[0]);
+      execl(MAPDELTA_SERVER_BIN, MAPDELTA_SERVER_BIN, "serve", "--config", config.c_str(), "--port", "0", nullptr);
+      _exit(127);
+    }
+    close(fds[1]);
+    FILE* out = fdopen(fds[0], "r");
+    char line[256] = {0};
+    if (out && fgets(line, sizeof(line), out)) {
+      const std::string s(line);
+      port_ = std::stoi(s.substr(s.rfind(':') + 1));
+    }
+    if (out) fclose(out);
+    EXPECT_GT(port_, 0) << "server did not start; see " << log;
+  }
+  ~ServerProcess() {
+    if (pid_ > 0) Kill(SIGKILL);
+  }
+  int port() const { return port_; }
+  // Sends the signal and waits; returns the exit status (or -signal).
+  int Kill(int sig) {
+    ::kill(pid_, sig);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+  }
+  pid_t pid() const { return pid_; }
+
+ private:
+  pid_t pid_ = -1;
+  int port_ = 0;
+};
+
+class ServerProcessTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("mds_proc_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    config_ = (dir_ / "server.yaml").string();
+    std::ofstream(config_) << "storage:\n  database: " << (dir_ / "db.sqlite").string()
+                           << "\n  tile_size_m: 20\nlog:\n  level: info\n  format: json\n"
+                           << "pipeline:\n  max_depth_m: 50\n  free_space_depth_m: 20\n  pixel_stride: 1\n"
+                           << "classify:\n  th_ch_m: 2.4\n";
+    log_ = (dir_ / "server.log").string();
+    admin_ = Token("admin");
+    vehicle_ = Token("vehicle");
+  }
+  void TearDown() override {
+    if (HasFailure()) std::system(("tail -n 30 " + log_ + " >&2").c_str());
+    fs::remove_all(dir_);
+  }
+
+  std::string Token(const std::string& role) {
+    int code = 0;
+    const std::string out = RunCli("token create --config " + config_ + " --role " + role + " --name t-" + role, &code);
+    EXPECT_EQ(code, 0) << out;
+    const auto at = out.find("token: ");
+    return at == std::string::npos ? "" : "Bearer " + out.substr(at + 7, out.find('\n', at) - at - 7);
+  }
+
+  httplib::Headers H(const std::string& t) { return {{"Authorization", t}}; }
+
+  int64_t CreateSession(httplib::Client& c) {
+    const Json camera{{"width", 160}, {"height", 90}, {"fx", 80}, {"fy", 80}, {"cx", 80}, {"cy", 45}};
+    auto r = c.Post("/v1/sessions", H(vehicle_), Json{{"vehicle_id", "car"}, {"camera", camera}}.dump(), "application/json");
+    EXPECT_TRUE(r && r->status == 201);
+    return r ? Json::parse(r->body)["session_id"].get<int64_t>() : -1;
+  }
+
+  // Keyframe seq of a drive along x (1 m steps), as multipart items.
+  httplib::MultipartFormDataItems Keyframe(int seq, double y_cam) {
+    const SE3 T = CameraLookingMinusY(-5 + seq * 1.0, y_cam, kCameraHeight, kPitch);
+    const std::string png = PngString(ChangedScene().Render(TestCamera(), T, kMaxDepth));
+    return {{"meta", MetaJson(1000000000LL * (seq + 1), T).dump(), "", "application/json"},
+            {"depth", png, "d.png", "image/png"}};
+  }
+
+  int Put(httplib::Client& c, int64_t session, int seq, double y_cam) {
+    auto r = c.Put("/v1/sessions/" + std::to_string(session) + "/keyframes/" + std::to_string(seq), H(vehicle_),
+                   Keyframe(seq, y_cam));
+    return r ? r->status : 0;
+  }
+
+  Json Get(httplib::Client& c, const std::string& path, const std::string& token) {
+    auto r = c.Get(path, H(token));
+    EXPECT_TRUE(r && r->status == 200) << path << ": " << (r ? r->body : "no response");
+    return r ? Json::parse(r->body) : Json();
+  }
+
+  Json WaitJob(httplib::Client& c, int64_t job) {
+    for (int i = 0; i < 1200; ++i) {
+      const Json j = Get(c, "/v1/admin/jobs/" + std::to_string(job), admin_);
+      if (j.value("state", "") != "queued" && j.value("state", "") != "running") return j;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return Json();
+  }
+
+  void ImportPrior(httplib::Client& c) {
+    const std::string file = (dir_ / "prior.pcd").string();
+    WriteCloud(file, PriorScene().Sample(0.4));
+    std::ifstream in(file, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    auto r = c.Post("/v1/admin/prior?format=pcd", H(admin_), bytes, "application/octet-stream");
+    ASSERT_TRUE(r && r->status == 201);
+  }
+
+  fs::path dir_;
+  std::string config_, log_, admin_, vehicle_;
+};
+
+TEST_F(ServerProcessTest, TokenCliAndSigterm) {
+  int code = 0;
+  EXPECT_NE(RunCli("--help", &code).find("token create"), std::string::npos);
+  EXPECT_EQ(code, 0);
+  RunCli("token create --config " + config_ + " --role pilot --name x", &code);
+  EXPECT_EQ(code, 2);
+  ServerProcess server(config_, log_);
+  httplib::Client c("127.0.0.1", server.port());
+  EXPECT_EQ(c.Get("/v1/admin/jobs", H(admin_))->status, 200);
+  // Revoke through the CLI: the running server rejects the token at once.
+  const std::string id = admin_.substr(std::string("Bearer mdt_").size(), 12);
+  RunCli("token revoke --config " + config_ + " --id " + id, &code);
+  EXPECT_EQ(code, 0);
+  EXPECT_EQ(c.Get("/v1/admin/jobs", H(admin_))->status, 401);
+  EXPECT_EQ(server.Kill(SIGTERM), 0);
+}
+
+TEST_F(ServerProcessTest, SigkillDuringUploadsLosesNoAcknowledgedKeyframe) {
+  auto server = std::make_unique<ServerProcess>(config_, log_);
+  int64_t session = 0;
+  std::vector<int> acknowledged;
+  {
+    httplib::Client c("127.0.0.1", server->port());
+    session = CreateSession(c);
+    std::thread killer([&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+      server->Kill(SIGKILL);
+    });
+    for (int seq = 0; seq < 200; ++seq) {
+      const int status = Put(c, session, seq, 25.0);
+      if (status != 201) break;  // connection refused after the kill
+      acknowledged.push_back(seq);
+    }
+    killer.join();
+  }
+  ASSERT_GT(acknowledged.size(), 2u) << "too few uploads before the kill";
+  ASSERT_LT(acknowledged.size(), 200u) << "the kill came after all uploads";
+  ServerProcess restarted(config_, log_);
+  httplib::Client c("127.0.0.1", restarted.port());
+  const Json s = Get(c, "/v1/sessions/" + std::to_string(session), vehicle_);
+  // Every acknowledged keyframe is there; at most the one in flight was stored unacknowledged.
+  EXPECT_GE(s["keyframe_count"].get<size_t>(), acknowledged.size());
+  EXPECT_LE(s["keyframe_count"].get<size_t>(), acknowledged.size() + 1);
+  // Retrying acknowledged keyframes is an identical repeat (200), the next is new (201).
+  EXPECT_EQ(Put(c, session, acknowledged.back(), 25.0), 200);
+  const int next = s["next_seq"].get<int>();
+  EXPECT_EQ(Put(c, session, next, 25.0), 201);
+  EXPECT_EQ(restarted.Kill(SIGTERM), 0);
+}
+
+TEST_F(ServerProcessTest, SigkillDuringCommitResumesToTheSameResult) {
+  constexpr int kKeyframes = 51;
+  // Reference: an uninterrupted commit of the same session in a first database.
+  auto tiles_of = [&](httplib::Client& c) {
+    std::map<std::string, std::pair<int, int>> out;
+    const Json listing = Get(c, "/v1/changes/tiles?bbox=-30,-10,70,40&page_size=100", Token("reader"));
+    for (const Json& t : listing["tiles"]) {
+      out[t["tile"]] = {t["new_count"].get<int>(), t["removed_count"].get<int>()};
+    }
+    return out;
+  };
+  auto upload_and_commit = [&](httplib::Client& c) {
+    ImportPrior(c);
+    const int64_t session = CreateSession(c);
+    for (int seq = 0; seq < kKeyframes; ++seq) EXPECT_EQ(Put(c, session, seq, 25.0), 201);
+    auto r = c.Post("/v1/sessions/" + std::to_string(session) + "/commit", H(vehicle_));
+    EXPECT_TRUE(r && r->status == 202);
+    return Json::parse(r->body)["job_id"].get<int64_t>();
+  };
+  std::map<std::string, std::pair<int, int>> reference;
+  {
+    ServerProcess server(config_, log_);
+    httplib::Client c("127.0.0.1", server.port());
+    const int64_t job = upload_and_commit(c);
+    ASSERT_EQ(WaitJob(c, job)["state"], "succeeded");
+    reference = tiles_of(c);
+    server.Kill(SIGTERM);
+  }
+  ASSERT_FALSE(reference.empty()) << "no changed tiles in the reference run";
+  fs::remove(dir_ / "db.sqlite");
+  fs::remove(dir_ / "db.sqlite-wal");
+  fs::remove(dir_ / "db.sqlite-shm");
+  admin_ = Token("admin");
+  vehicle_ = Token("vehicle");
+
+  // Same again, killed while the commit job runs.
+  double progress_at_kill = -1;
+  int64_t job = 0;
+  {
+    ServerProcess server(config_, log_);
+    httplib::Client c("127.0.0.1", server.port());
+    job = upload_and_commit(c);
+    for (int i = 0; i < 2000; ++i) {
+      const Json j = Get(c, "/v1/admin/jobs/" + std::to_string(job), admin_);
+      if (j["state"] == "running" && j["progress"].get<double>() >= 0.3) {
+        progress_at_kill = j["progress"];
+        break;
+      }
+      if (j["state"] == "succeeded") break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    server.Kill(SIGKILL);
+  }
+  EXPECT_GE(progress_at_kill, 0.3) << "the commit finished before it could be killed";
+  ServerProcess restarted(config_, log_);
+  httplib::Client c("127.0.0.1", restarted.port());
+  const Json done = WaitJob(c, job);
+  ASSERT_EQ(done["state"], "succeeded") << done.dump();
+  EXPECT_EQ(tiles_of(c), reference);
+  EXPECT_EQ(restarted.Kill(SIGTERM), 0);
+}
+
+}  // namespace
+}  // namespace mapdelta::testing
