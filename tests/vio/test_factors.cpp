@@ -234,3 +234,86 @@ TEST(Marginalization, MatchesFullSolveOnLinearChain) {
   }
   for (auto* c : costs) delete c;
 }
+
+namespace {
+
+// Linear residual A * x + b * p - c with a 3-vector x and a scalar p (a "landmark").
+struct LinearPoint {
+  Eigen::Matrix3d A;
+  Eigen::Vector3d b, c;
+  template <typename T>
+  bool operator()(const T* x, const T* p, T* r) const {
+    Eigen::Map<const Eigen::Matrix<T, 3, 1>> X(x);
+    Eigen::Map<Eigen::Matrix<T, 3, 1>> R(r);
+    R = A.cast<T>() * X + b.cast<T>() * p[0] - c.cast<T>();
+    return true;
+  }
+};
+
+ceres::CostFunction* MakePoint(std::mt19937& rng) {
+  std::normal_distribution<double> n(0, 1);
+  auto* f = new LinearPoint;
+  f->A = Eigen::Matrix3d::NullaryExpr([&]() { return n(rng); });
+  f->b = Eigen::Vector3d::NullaryExpr([&]() { return n(rng); });
+  f->c = Eigen::Vector3d::NullaryExpr([&]() { return n(rng); });
+  return new ceres::AutoDiffCostFunction<LinearPoint, 3, 3, 1>(f);
+}
+
+}  // namespace
+
+// Scalar blocks take the sparse first elimination stage: states x0..x2, points p0..p3 each
+// seen by two states; dropping x0 and p0, p1 must reproduce the full solve for x1, x2, p2, p3
+// (to the solvers' convergence, ~1e-8; a wrong elimination is off by O(0.1)).
+TEST(Marginalization, EliminatesScalarBlocksExactly) {
+  const int obs[8][2] = {{0, 0}, {1, 0}, {0, 1}, {2, 1}, {1, 2}, {2, 2}, {0, 3}, {2, 3}};
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.function_tolerance = options.gradient_tolerance = options.parameter_tolerance = 1e-16;
+  ceres::Solver::Summary summary;
+  ceres::Problem::Options keep;
+  keep.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+
+  std::mt19937 rng(5);
+  std::vector<ceres::CostFunction*> costs;
+  for (int k = 0; k < 8; ++k) costs.push_back(MakePoint(rng));
+  std::vector<std::vector<double>> xs(3, std::vector<double>(3, 0.0));
+  std::vector<double> ps(4, 0.0);
+  {
+    ceres::Problem problem(keep);
+    for (int k = 0; k < 8; ++k) problem.AddResidualBlock(costs[k], nullptr, xs[obs[k][0]].data(), &ps[obs[k][1]]);
+    ceres::Solve(options, &problem, &summary);
+  }
+
+  std::vector<std::vector<double>> x(3, std::vector<double>(3, 0.3));
+  std::vector<double> p(4, 0.7);
+  auto marg = std::make_shared<Marginalizer>();
+  std::mt19937 rng2(5);
+  std::vector<ceres::CostFunction*> copies;
+  for (int k = 0; k < 8; ++k) copies.push_back(MakePoint(rng2));
+  auto touches_dropped = [&](int k) { return obs[k][0] == 0 || obs[k][1] <= 1; };
+  for (int k = 0; k < 8; ++k) {
+    if (touches_dropped(k)) {
+      marg->AddResidualBlock(copies[k], nullptr, {x[obs[k][0]].data(), &p[obs[k][1]]});
+    } else {
+      delete copies[k];
+    }
+  }
+  marg->Drop(x[0].data());
+  marg->Drop(&p[0]);
+  marg->Drop(&p[1]);
+  ASSERT_TRUE(marg->Marginalize());
+  ceres::Problem reduced(keep);
+  for (int k = 0; k < 8; ++k) {
+    if (!touches_dropped(k)) reduced.AddResidualBlock(costs[k], nullptr, x[obs[k][0]].data(), &p[obs[k][1]]);
+  }
+  auto* prior = new MarginalizationFactor(marg);
+  reduced.AddResidualBlock(prior, nullptr, marg->kept_blocks());
+  ceres::Solve(options, &reduced, &summary);
+  delete prior;
+  for (int b = 1; b < 3; ++b) {
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(x[b][d], xs[b][d], 1e-6) << b << "," << d;
+  }
+  EXPECT_NEAR(p[2], ps[2], 1e-6);
+  EXPECT_NEAR(p[3], ps[3], 1e-6);
+  for (auto* c : costs) delete c;
+}

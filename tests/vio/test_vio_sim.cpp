@@ -64,5 +64,5 @@ TEST(VioSim, TinySmallNoiseSequenceStaysBounded) {
   const auto result = vio::RunSequence(seq, vio::VioConfig{});
   EXPECT_EQ(result.resets, 0);
   const AteResult ate = ComputeAte(seq.groundtruth, result.frames);
-  EXPECT_LT(ate.rmse, 0.5) << "ATE rmse over " << ate.pairs << " poses";
+  EXPECT_LT(ate.rmse, 0.2) << "ATE rmse over " << ate.pairs << " poses";
 }

@@ -103,9 +103,19 @@ bool Marginalizer::Marginalize() {
   for (int p : points) {
     const double hpp = H(p, p);
     if (!(hpp > 1e-12)) continue;
-    const Eigen::VectorXd col = H.col(p);
-    H.noalias() -= col * col.transpose() / hpp;
-    g -= col * (g[p] / hpp);
+    // A point couples to a few poses only: update just the rows/columns it touches.
+    std::vector<int> nz;
+    for (int i = 0; i < n; ++i) {
+      if (H(i, p) != 0.0) nz.push_back(i);
+    }
+    std::vector<double> col(nz.size());
+    for (size_t i = 0; i < nz.size(); ++i) col[i] = H(nz[i], p);  // copy: updated below
+    const double gp = g[p];
+    for (size_t i = 0; i < nz.size(); ++i) {
+      const double ha = col[i] / hpp;
+      g[nz[i]] -= ha * gp;
+      for (size_t j = 0; j < nz.size(); ++j) H(nz[i], nz[j]) -= ha * col[j];
+    }
   }
   const int k = n - m;
   const int ms = static_cast<int>(states.size());
