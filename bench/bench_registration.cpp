@@ -166,6 +166,10 @@ int main(int argc, char** argv) {
 
     mapdelta::GicpParams params;  // max_correspondence 2 m, 64 iterations, k = 20
     params.voxel_m = o.voxel_m;
+    // PCL's GICP stops when no rotation-matrix element changes by 2e-3 and no translation
+    // element by 5e-4 (its defaults); ours uses the same thresholds on the step here.
+    params.rotation_eps_rad = 2e-3;
+    params.translation_eps_m = 5e-4;
     auto ours = [&](int threads) {
       mapdelta::GicpParams p = params;
       p.num_threads = threads;

@@ -70,6 +70,21 @@ bool NeighborIndex::Nearest(const Point& query, size_t* index, float* distance) 
   return true;
 }
 
+bool NeighborIndex::NearestWithin(const Point& query, float max_distance, size_t* index,
+                                  float* distance) const {
+  if (empty() || !(max_distance > 0.f)) return false;
+  size_t i = 0;
+  float d2 = 0.f;
+  nanoflann::KNNResultSet<float, size_t> result(1);
+  result.init(&i, &d2);
+  d2 = max_distance * max_distance;  // worstDist(): only strictly closer points are taken
+  impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
+  if (result.size() == 0) return false;
+  *index = i;
+  *distance = std::sqrt(d2);
+  return true;
+}
+
 float NeighborIndex::NearestDistance(const Point& query) const {
   size_t i = 0;
   float d = std::numeric_limits<float>::infinity();

@@ -37,7 +37,8 @@ TEST(GicpCovariance, CalibratedOnNoisyTrials) {
     guess.tail<3>() *= 0.3;
     const RegistrationResult r =
         AlignGicp(target, source, RetractRight(T_target_source, guess), params);
-    ASSERT_TRUE(r.converged) << "trial " << trial;
+    ASSERT_TRUE(r.converged) << "trial " << trial << ": " << r.iterations << " iterations, "
+                             << r.num_inliers << " inliers";
     const Vector6d e = LocalRight(T_target_source, r.T_target_source);
     for (int k = 0; k < 6; ++k) {
       within += std::abs(e(k)) <= 3 * std::sqrt(r.covariance(k, k));

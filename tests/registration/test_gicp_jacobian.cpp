@@ -1,8 +1,10 @@
 // The GICP residual Jacobian against central numeric differences, and the tangent helpers.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
+#include "mapdelta/common/neighbor_index.hpp"
 #include "mapdelta/common/registration/gicp_factor.hpp"
 #include "mapdelta/common/registration/se3_tangent.hpp"
 
@@ -63,6 +65,40 @@ TEST(GicpJacobian, PlaneRegularizationKeepsNormal) {
   const Eigen::Vector3d normal = Eigen::Vector3d(-0.5, 0, 1).normalized();
   EXPECT_NEAR(normal.dot(C * normal), kPlaneNormalEigenvalue, 1e-9);
   EXPECT_NEAR(C.trace(), 2 + kPlaneNormalEigenvalue, 1e-9);
+}
+
+}  // namespace
+}  // namespace mapdelta
+
+namespace mapdelta {
+namespace {
+
+// NeighborIndex::NearestWithin (added for GICP's bounded correspondence search) against brute
+// force: the nearest point if strictly closer than the bound, else nothing.
+TEST(NearestWithin, MatchesBruteForce) {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> u(-10, 10);
+  PointCloud cloud(2000);
+  for (auto& p : cloud) p = Point(u(rng), u(rng), u(rng));
+  const NeighborIndex index(cloud);
+  for (int q = 0; q < 500; ++q) {
+    const Point query(u(rng), u(rng), u(rng));
+    const float bound = 0.2f + 0.002f * q;
+    float best = std::numeric_limits<float>::infinity();
+    for (const auto& p : cloud) best = std::min(best, (p - query).norm());
+    size_t i = 0;
+    float d = 0;
+    const bool found = index.NearestWithin(query, bound, &i, &d);
+    EXPECT_EQ(found, best < bound) << "bound " << bound << " nearest " << best;
+    if (found) {
+      EXPECT_NEAR(d, best, 1e-5);
+      EXPECT_NEAR((cloud[i] - query).norm(), best, 1e-5);
+    }
+  }
+  size_t i = 0;
+  float d = 0;
+  EXPECT_FALSE(index.NearestWithin(cloud[0], 0.f, &i, &d));
+  EXPECT_FALSE(index.NearestWithin(cloud[0], std::numeric_limits<float>::quiet_NaN(), &i, &d));
 }
 
 }  // namespace

