@@ -32,6 +32,7 @@ void FeatureTracker::Reset() {
   points_.clear();
   ids_.clear();
   counts_.clear();
+  disparity_.clear();
 }
 
 std::vector<TrackedFeature> FeatureTracker::Track(const cv::Mat& left, const cv::Mat& right) {
@@ -73,6 +74,7 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
   Compact(&points_, keep);
   Compact(&ids_, keep);
   Compact(&counts_, keep);
+  Compact(&disparity_, keep);
   // Outliers that KLT tracked consistently but onto the wrong structure (e.g. occlusion
   // boundaries) violate the epipolar geometry of the frame pair.
   if (points_.size() >= 16) {
@@ -83,6 +85,7 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
       Compact(&points_, inliers);
       Compact(&ids_, inliers);
       Compact(&counts_, inliers);
+      Compact(&disparity_, inliers);
     }
   }
   for (int& c : counts_) ++c;
@@ -104,6 +107,7 @@ void FeatureTracker::Detect(const cv::Mat& left) {
     points_.push_back(c);
     ids_.push_back(next_id_++);
     counts_.push_back(1);
+    disparity_.push_back(-1.f);
     ++stats_.detected;
   }
 }
@@ -112,6 +116,8 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   const size_t n = points_.size();
   right_points_.assign(n, cv::Point2f(0, 0));
   has_right_.assign(n, 0);
+  std::vector<float> last_disparity = disparity_;
+  disparity_.assign(n, -1.f);
   if (n == 0) return;
   // 1. Coarse disparity by ZNCC along the row (large baselines defeat plain KLT).
   constexpr int kHalf = 5;
@@ -121,9 +127,15 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     const int u = static_cast<int>(std::lround(points_[i].x));
     const int v = static_cast<int>(std::lround(points_[i].y));
     if (u - kHalf < 0 || v - kHalf < 0 || u + kHalf >= left.cols || v + kHalf >= left.rows) continue;
-    const int x0 = std::max(0, u - static_cast<int>(config_.max_disparity_px) - kHalf);
-    const int x1 = u + kHalf + 1;  // disparity >= 0
-    if (x1 - x0 < 2 * kHalf + 1) continue;
+    // Search all disparities for new features, a band around the last one for tracked ones.
+    int d_min = 0, d_max = static_cast<int>(config_.max_disparity_px);
+    if (last_disparity[i] >= 0) {
+      d_min = std::max(0, static_cast<int>(last_disparity[i]) - 12);
+      d_max = std::min(d_max, static_cast<int>(last_disparity[i]) + 12);
+    }
+    const int x0 = std::max(0, u - d_max - kHalf);
+    const int x1 = u - d_min + kHalf + 1;
+    if (x1 - x0 < 2 * kHalf + 1 || x1 > right.cols) continue;
     cv::Mat scores;
     cv::matchTemplate(right(cv::Rect(x0, v - kHalf, x1 - x0, 2 * kHalf + 1)),
                       left(cv::Rect(u - kHalf, v - kHalf, 2 * kHalf + 1, 2 * kHalf + 1)), scores,
@@ -167,6 +179,7 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     if (!ok) continue;
     right_points_[index[k]] = r;
     has_right_[index[k]] = 1;
+    disparity_[index[k]] = l.x - r.x;
     ++stats_.stereo;
   }
 }

@@ -49,6 +49,7 @@ class FeatureTracker {
   std::vector<cv::Point2f> points_;
   std::vector<uint64_t> ids_;
   std::vector<int> counts_;
+  std::vector<float> disparity_;  // last stereo disparity per feature, < 0 if none
   std::vector<cv::Point2f> right_points_;
   std::vector<unsigned char> has_right_;
   uint64_t next_id_ = 1;
