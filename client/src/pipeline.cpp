@@ -63,7 +63,7 @@ class Backend {
   Backend(const ClientConfig& config, const PipelineInputs& in, const StereoRig& rig,
           const SE3& initial_guess, StageTimer* timer, BoundedQueue<FinalKeyframe>* out,
           PipelineResult* result)
-      : config_(config), in_(in), rig_(rig), timer_(timer), out_(out), result_(result),
+      : config_(config), rig_(rig), timer_(timer), out_(out), result_(result),
         fusion_(config.fusion) {
     Matrix6 init_cov = Matrix6::Zero();
     init_cov.diagonal() << Eigen::Vector3d::Constant(std::pow(config.fusion.init_sigma_rot_rad, 2)),
@@ -140,23 +140,38 @@ class Backend {
                               config_.local_cloud);
     }
     RegistrationOutcome r;
+    const auto& rc = config_.registration;
+    const bool relocalize = started_ && rejected_in_row_ >= rc.relocalize_after_rejections;
     {
       StageTimer::Scope t(timer_, "4 registration");
       const SE3 guess = fusion_.FusedPose(k);
-      r = started_ ? registrar_->Register(local, guess) : registrar_->RefineInitialPose(local, guess);
+      if (!started_) {
+        r = registrar_->RefineInitialPose(local, guess);
+      } else if (relocalize) {
+        // Lost: odometry drifted beyond what the normal gate accepts. Search like at start-up.
+        r = registrar_->RefineInitialPose(local, guess, rc.relocalize_max_correction_m,
+                                          rc.relocalize_max_correction_deg * M_PI / 180.0);
+      } else {
+        r = registrar_->Register(local, guess);
+      }
     }
+    const char* mode = !started_ ? " (start-up)" : relocalize ? " (re-localization)" : "";
     if (!r.accepted) {
       ++result_->registrations_rejected;
-      MD_LOG(kWarn, "registration of keyframe " << k << (started_ ? "" : " (start-up)")
-                                                << " rejected: " << r.reason);
+      ++rejected_in_row_;
+      MD_LOG(kWarn, "registration of keyframe " << k << mode << " rejected: " << r.reason);
       return;
     }
+    rejected_in_row_ = 0;
     ++result_->registrations_accepted;
     if (!started_) {
       MD_LOG(kInfo, "start-up pose refined by " << r.correction_m << " m, "
                                                 << r.correction_rad * 180.0 / M_PI << " deg");
       started_ = true;
       result_->startup_refined = true;
+    } else if (relocalize) {
+      MD_LOG(kInfo, "re-localized at keyframe " << k << " by " << r.correction_m << " m, "
+                                                << r.correction_rad * 180.0 / M_PI << " deg");
     }
     // Keyframes that become final with this registration get their covariance from the same
     // solve.
@@ -206,7 +221,6 @@ class Backend {
   }
 
   const ClientConfig& config_;
-  const PipelineInputs& in_;
   const StereoRig& rig_;
   StageTimer* timer_;
   BoundedQueue<FinalKeyframe>* out_;
@@ -218,6 +232,7 @@ class Backend {
   std::deque<DepthImage> filtered_; // filtered depth of keyframes not yet emitted
   size_t first_unemitted_ = 0;
   bool started_ = false;            // start-up refinement accepted
+  int rejected_in_row_ = 0;
 };
 
 }  // namespace
@@ -239,7 +254,6 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
   std::atomic<size_t> frames_done{0}, keyframes{0};
 
   // Stage A: frames -> keyframes -> depth.
-  std::optional<SE3> first_odom;
   std::thread stage_a([&] {
     try {
       const StereoDepth stereo(config.stereo);

@@ -47,6 +47,11 @@ struct RegistrationConfig {
   double prior_radius_m = 100.0;     // prior fetched around the vehicle
   double prior_voxel_m = 0.4;
   double covariance_scale = 1.0;     // multiplies the registration covariance before fusion
+  // After this many rejections in a row the vehicle re-localizes like at start-up:
+  // coarse-to-fine registration accepting corrections up to the limits below.
+  int relocalize_after_rejections = 2;
+  double relocalize_max_correction_m = 8.0;
+  double relocalize_max_correction_deg = 15.0;
 };
 
 struct FusionConfig {
