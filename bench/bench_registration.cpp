@@ -46,13 +46,14 @@ void PrintHelp() {
                "  --verbose    debug log lines (stderr)\n";
 }
 
-bool ParseArgs(int argc, char** argv, Options* o) {
+enum class Parse { kRun, kHelp, kError };
+
+Parse ParseArgs(int argc, char** argv, Options* o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
     if (a == "--help" || a == "-h") {
-      PrintHelp();
-      std::exit(0);
+      return Parse::kHelp;
     } else if (a == "--verbose") {
       mapdelta::log::SetLevel(mapdelta::log::Level::kDebug);
     } else if (a == "--data" && has_value) {
@@ -65,14 +66,14 @@ bool ParseArgs(int argc, char** argv, Options* o) {
       o->repeats = std::stoi(argv[++i]);
     } else {
       std::cerr << "bench_registration: unknown or incomplete option '" << a << "'\n";
-      return false;
+      return Parse::kError;
     }
   }
   if (!(o->voxel_m > 0) || o->threads < 1 || o->repeats < 1) {
     std::cerr << "bench_registration: --voxel must be > 0, --threads and --repeats >= 1\n";
-    return false;
+    return Parse::kError;
   }
-  return true;
+  return Parse::kRun;
 }
 
 SE3 ReadTransform(const std::string& path) {
@@ -147,9 +148,15 @@ void Report(const char* name, const Run& r, const SE3& reference, const Run& bas
 int main(int argc, char** argv) {
   mapdelta::log::SetLevel(mapdelta::log::Level::kWarn);
   Options o;
-  if (!ParseArgs(argc, argv, &o)) {
+  Parse parse = Parse::kError;
+  try {
+    parse = ParseArgs(argc, argv, &o);
+  } catch (const std::exception&) {  // std::stod / std::stoi on a non-number
+    std::cerr << "bench_registration: an option value is not a number\n";
+  }
+  if (parse != Parse::kRun) {
     PrintHelp();
-    return 2;
+    return parse == Parse::kHelp ? 0 : 2;
   }
   try {
     const SE3 reference = ReadTransform(o.data_dir + "/T_target_source.txt");
