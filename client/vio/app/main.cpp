@@ -25,7 +25,7 @@ const char* kUsage =
     "  --threads N           Ceres threads (default 1)\n"
     "  --set KEY=VALUE       override a VioConfig number: iterations, window, max_features,\n"
     "                        min_distance, pixel_sigma, huber, parallax, right_other (0/1),\n"
-    "                        covariance (0/1)\n"
+    "                        covariance (0/1), min_zncc, outlier (sigmas)\n"
     "  --log-level L         debug|info|warn|error (default info)\n"
     "  --help                this text\n"
     "Rectified, undistorted stereo is required (as mapdelta-sim writes).\n";
@@ -56,6 +56,8 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   else if (key == "parallax") c->keyframe_parallax = v;
   else if (key == "right_other") c->right_in_other_frames = v != 0;
   else if (key == "covariance") c->compute_keyframe_covariance = v != 0;
+  else if (key == "min_zncc") c->tracker.min_zncc = v;
+  else if (key == "outlier") c->outlier_sigmas = v;
   else {
     *error = "--set: unknown key '" + key + "'";
     return false;
