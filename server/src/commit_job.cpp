@@ -196,6 +196,9 @@ Json RunCommitJob(JobContext& ctx) {
   op.max_depth_m = pc.max_depth_m;
   op.free_ray_m = pc.free_space_depth_m;
   op.prefilter_voxel_m = pc.octree_resolution_m;
+  // Rays through every pixel_stride-th pixel: at 800x450 and a 0.8 m octree, neighbouring
+  // rays fall into the same voxels for most of their length (4x fewer rays at stride 2).
+  op.pixel_stride = pc.pixel_stride;
   std::vector<ObservedArea> areas(threads, ObservedArea(pc.octree_resolution_m));
   std::vector<Eigen::Vector3d> camera_centres;
   std::mutex centres_mutex;

@@ -40,7 +40,7 @@ struct PipelineConfig {
   double free_space_depth_m = 15.0;   // th_f: free-space ray length for pixels without depth
   double session_voxel_m = 0.8;       // voxel of the session cloud (0.4 - 0.8)
   double octree_resolution_m = 0.8;   // rho_o
-  int pixel_stride = 2;               // use every n-th pixel in u and v for the session cloud
+  int pixel_stride = 2;               // every n-th pixel in u and v (session cloud and rays)
   bool gicp_enabled = true;           // paper step 2: align the session cloud to the prior
   double gicp_max_correspondence_m = 2.0;
   double gicp_max_fitness_m = 1.0;
