@@ -1,6 +1,7 @@
 #include "mapdelta/common/change_detection.hpp"
 
 #include <cmath>
+#include <exception>
 
 #include "mapdelta/common/depth_cloud.hpp"
 #include "mapdelta/common/error.hpp"
@@ -66,33 +67,42 @@ Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_pri
   return changes;
 }
 
-PointCloud BuildGlobalCloud(const KeyframeFolder& keyframes, double max_depth_m, double voxel_m) {
+namespace {
+
+// Depth of keyframe i: from memory, or read from the folder on demand (bounded memory).
+using DepthSource = std::function<DepthImage(size_t index)>;
+
+PointCloud BuildGlobalCloudFrom(const KeyframeFolder& keyframes, const DepthSource& depth_of,
+                                double max_depth_m, double voxel_m, const ProgressFunction& progress) {
   if (!(max_depth_m > 0) || !(voxel_m > 0)) {
     throw Error(ErrorCode::kInvalidArgument, "global cloud: max depth and voxel size must be > 0");
   }
-  const PinholeCamera& camera = keyframes.camera;
-  for (const Keyframe& keyframe : keyframes.keyframes) {
-    if (keyframe.depth.width != camera.width || keyframe.depth.height != camera.height) {
-      throw Error(ErrorCode::kInvalidArgument,
-                  "global cloud: depth image of keyframe " + std::to_string(keyframe.t_ns) +
-                      " does not match the camera size");
-    }
-  }
-  std::vector<PointCloud> per_keyframe(keyframes.keyframes.size());
+  const size_t n = keyframes.keyframes.size();
+  std::vector<PointCloud> per_keyframe(n);
+  std::exception_ptr failure;  // exceptions must not leave an OpenMP loop: rethrown after it
+  size_t done = 0;
 #pragma omp parallel for schedule(dynamic, 1)
-  for (long k = 0; k < static_cast<long>(per_keyframe.size()); ++k) {
-    const Keyframe& keyframe = keyframes.keyframes[k];
-    const PointCloud points = DepthToCloud(camera, keyframe.depth, keyframe.T_map_cam, max_depth_m);
-    per_keyframe[k] = VoxelDownsample(points, static_cast<float>(voxel_m));
+  for (long k = 0; k < static_cast<long>(n); ++k) {
+    try {
+      const PointCloud points = DepthToCloud(keyframes.camera, depth_of(k),
+                                             keyframes.keyframes[k].T_map_cam, max_depth_m);
+      per_keyframe[k] = VoxelDownsample(points, static_cast<float>(voxel_m));
+    } catch (...) {
+#pragma omp critical(mapdelta_global_cloud_failure)
+      if (!failure) failure = std::current_exception();
+    }
+#pragma omp critical(mapdelta_global_cloud_progress)
+    if (progress) progress("global cloud", static_cast<double>(++done) / n);
   }
+  if (failure) std::rethrow_exception(failure);
   PointCloud all;
   for (const auto& points : per_keyframe) all.insert(all.end(), points.begin(), points.end());
   return VoxelDownsample(all, static_cast<float>(voxel_m));
 }
 
-ChangeDetectionResult DetectChanges(const KeyframeFolder& keyframes, const PointCloud& prior,
-                                    const ChangeDetectionParams& params, const AlignFunction& align,
-                                    const ProgressFunction& progress) {
+ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes, const DepthSource& depth_of,
+                                        const PointCloud& prior, const ChangeDetectionParams& params,
+                                        const AlignFunction& align, const ProgressFunction& progress) {
   CheckThreshold(params.th_ch_m);
   if (keyframes.keyframes.empty()) {
     throw Error(ErrorCode::kInvalidArgument, "change detection: no keyframes");
@@ -104,7 +114,8 @@ ChangeDetectionResult DetectChanges(const KeyframeFolder& keyframes, const Point
   result.observed = ObservedArea(params.observed.resolution_m);
   // 1. Global cloud P_g (depth cut th_d) and the prior, both at cloud_voxel_m.
   report("global cloud", 0.0);
-  result.global = BuildGlobalCloud(keyframes, params.observed.max_depth_m, params.cloud_voxel_m);
+  result.global = BuildGlobalCloudFrom(keyframes, depth_of, params.observed.max_depth_m,
+                                       params.cloud_voxel_m, progress);
   result.prior = VoxelDownsample(prior, static_cast<float>(params.cloud_voxel_m));
   MD_LOG(kInfo, "change detection: global cloud " << result.global.size() << " points, prior "
                                                   << result.prior.size() << " points");
@@ -121,9 +132,8 @@ ChangeDetectionResult DetectChanges(const KeyframeFolder& keyframes, const Point
   const size_t n = keyframes.keyframes.size();
   for (size_t k = 0; k < n; ++k) {
     report("observed area", static_cast<double>(k) / n);
-    const Keyframe& keyframe = keyframes.keyframes[k];
-    result.observed.InsertKeyframe(keyframes.camera, result.T_prior_global * keyframe.T_map_cam,
-                                   keyframe.depth, params.observed);
+    result.observed.InsertKeyframe(keyframes.camera, result.T_prior_global * keyframes.keyframes[k].T_map_cam,
+                                   depth_of(k), params.observed);
   }
   report("observed area", 1.0);
   // 4. Alg. 1 then Alg. 2.
@@ -135,6 +145,42 @@ ChangeDetectionResult DetectChanges(const KeyframeFolder& keyframes, const Point
                                                     << result.changes.new_points.size() << ", removed "
                                                     << result.changes.removed_points.size());
   return result;
+}
+
+DepthSource InMemory(const KeyframeFolder& keyframes) {
+  for (const Keyframe& keyframe : keyframes.keyframes) {
+    if (keyframe.depth.width != keyframes.camera.width || keyframe.depth.height != keyframes.camera.height) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "keyframe " + std::to_string(keyframe.t_ns) + ": depth image is " +
+                      std::to_string(keyframe.depth.width) + "x" + std::to_string(keyframe.depth.height) +
+                      ", camera is " + std::to_string(keyframes.camera.width) + "x" +
+                      std::to_string(keyframes.camera.height));
+    }
+  }
+  return [&keyframes](size_t k) { return keyframes.keyframes[k].depth; };
+}
+
+}  // namespace
+
+PointCloud BuildGlobalCloud(const KeyframeFolder& keyframes, double max_depth_m, double voxel_m) {
+  return BuildGlobalCloudFrom(keyframes, InMemory(keyframes), max_depth_m, voxel_m, nullptr);
+}
+
+ChangeDetectionResult DetectChanges(const KeyframeFolder& keyframes, const PointCloud& prior,
+                                    const ChangeDetectionParams& params, const AlignFunction& align,
+                                    const ProgressFunction& progress) {
+  return DetectChangesFrom(keyframes, InMemory(keyframes), prior, params, align, progress);
+}
+
+ChangeDetectionResult DetectChangesInFolder(const std::string& keyframe_dir, const PointCloud& prior,
+                                            const ChangeDetectionParams& params,
+                                            const AlignFunction& align,
+                                            const ProgressFunction& progress) {
+  const KeyframeFolder index = ReadKeyframeFolderIndex(keyframe_dir);
+  const DepthSource from_disk = [&](size_t k) {
+    return ReadKeyframeDepth(keyframe_dir, index, index.keyframes[k].t_ns);
+  };
+  return DetectChangesFrom(index, from_disk, prior, params, align, progress);
 }
 
 }  // namespace mapdelta

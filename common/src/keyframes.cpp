@@ -98,7 +98,7 @@ void AppendPose(const std::string& path, const Keyframe& keyframe) {
 
 }  // namespace
 
-KeyframeFolder ReadKeyframeFolder(const std::string& dir) {
+KeyframeFolder ReadKeyframeFolderIndex(const std::string& dir) {
   if (!fs::is_directory(dir)) throw Error(ErrorCode::kIo, dir + ": not a keyframe folder");
   KeyframeFolder folder;
   ReadCameraYaml(dir + "/camera.yaml", &folder.camera, &folder.depth_scale);
@@ -108,21 +108,29 @@ KeyframeFolder ReadKeyframeFolder(const std::string& dir) {
     Keyframe keyframe;
     keyframe.t_ns = pose.t_ns;
     keyframe.T_map_cam = pose.T;
-    const std::string depth_path = dir + "/depth/" + std::to_string(pose.t_ns) + ".png";
-    keyframe.depth = ReadDepthPng(depth_path, folder.depth_scale);
-    if (keyframe.depth.width != folder.camera.width ||
-        keyframe.depth.height != folder.camera.height) {
-      throw Error(ErrorCode::kParse,
-                  depth_path + ": image is " + std::to_string(keyframe.depth.width) + "x" +
-                      std::to_string(keyframe.depth.height) + ", camera.yaml says " +
-                      std::to_string(folder.camera.width) + "x" +
-                      std::to_string(folder.camera.height));
-    }
     if (auto it = covariances.find(pose.t_ns); it != covariances.end()) {
       keyframe.covariance = it->second;
     }
     folder.keyframes.push_back(std::move(keyframe));
   }
+  return folder;
+}
+
+DepthImage ReadKeyframeDepth(const std::string& dir, const KeyframeFolder& folder, int64_t t_ns) {
+  const std::string depth_path = dir + "/depth/" + std::to_string(t_ns) + ".png";
+  DepthImage depth = ReadDepthPng(depth_path, folder.depth_scale);
+  if (depth.width != folder.camera.width || depth.height != folder.camera.height) {
+    throw Error(ErrorCode::kParse,
+                depth_path + ": image is " + std::to_string(depth.width) + "x" +
+                    std::to_string(depth.height) + ", camera.yaml says " +
+                    std::to_string(folder.camera.width) + "x" + std::to_string(folder.camera.height));
+  }
+  return depth;
+}
+
+KeyframeFolder ReadKeyframeFolder(const std::string& dir) {
+  KeyframeFolder folder = ReadKeyframeFolderIndex(dir);
+  for (auto& keyframe : folder.keyframes) keyframe.depth = ReadKeyframeDepth(dir, folder, keyframe.t_ns);
   return folder;
 }
 

@@ -113,6 +113,17 @@ TEST(Tools, BadInputNamesTheFileOrOption) {
               tools::RunDetect({"--prior", dir + "/empty.pcd", "--keyframes", dir + "/kf", "--out", dir}, out);
             }).find("empty.pcd: prior cloud is empty"),
             std::string::npos);
+  // A depth image of the wrong size deep inside a streamed folder: named, no crash.
+  testing::BoxWorld world = testing::MakeBoxWorld();
+  world.keyframes.keyframes.resize(3);
+  WriteKeyframeFolder(dir + "/kf3", world.keyframes);
+  WriteDepthPng(dir + "/kf3/depth/2000000000.png", DepthImage(7, 5));
+  WriteCloud(dir + "/prior.pcd", testing::SampleBoxSurfaces(world.original, 1.0));
+  const std::string message = ErrorOf([&] {
+    tools::RunDetect({"--prior", dir + "/prior.pcd", "--keyframes", dir + "/kf3", "--out", dir + "/o"}, out);
+  });
+  EXPECT_NE(message.find("2000000000.png: image is 7x5, camera.yaml says 200x150"), std::string::npos)
+      << message;
   EXPECT_NE(ErrorOf([&] { tools::RunDetect({"--prior", dir + "/x.pcd", "--keyframes", dir, "--out", dir,
                                             "--th-ch", "abc"}, out); }).find("--th-ch"),
             std::string::npos);

@@ -81,7 +81,8 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
   const PointCloud prior = ReadCloud(prior_path);
   if (prior.empty()) throw Error(ErrorCode::kInvalidArgument, prior_path + ": prior cloud is empty");
   MD_LOG(kInfo, "reading keyframes from " << keyframe_dir);
-  const KeyframeFolder keyframes = ReadKeyframeFolder(keyframe_dir);
+  // Poses only here; depth images are streamed from disk by the pipeline.
+  const KeyframeFolder keyframes = ReadKeyframeFolderIndex(keyframe_dir);
   if (keyframes.keyframes.empty()) {
     throw Error(ErrorCode::kInvalidArgument, keyframe_dir + "/poses.txt: no keyframes listed");
   }
@@ -96,8 +97,8 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
       last_percent = percent;
     }
   };
-  const ChangeDetectionResult result = DetectChanges(
-      keyframes, prior, params, align == "gicp" ? GicpAlignment() : AlignFunction(), progress);
+  const ChangeDetectionResult result = DetectChangesInFolder(
+      keyframe_dir, prior, params, align == "gicp" ? GicpAlignment() : AlignFunction(), progress);
   MD_LOG(kInfo, "writing results to " << out_dir);
   WriteCloud(out_dir + "/global.pcd", result.global);
   result.observed.Save(out_dir + "/observed.bt");

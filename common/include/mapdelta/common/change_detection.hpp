@@ -53,5 +53,11 @@ ChangeDetectionResult DetectChanges(const KeyframeFolder& keyframes, const Point
                                     const ChangeDetectionParams& params,
                                     const AlignFunction& align = nullptr,
                                     const ProgressFunction& progress = nullptr);
+// The same, reading each keyframe's depth from the folder only when needed (twice: for the
+// global cloud and for the observed area), so memory does not grow with the session length.
+ChangeDetectionResult DetectChangesInFolder(const std::string& keyframe_dir, const PointCloud& prior,
+                                            const ChangeDetectionParams& params,
+                                            const AlignFunction& align = nullptr,
+                                            const ProgressFunction& progress = nullptr);
 
 }  // namespace mapdelta

@@ -32,6 +32,10 @@ struct KeyframeFolder {
 
 // Throws Error naming the file and the problem (missing file, bad line, image size mismatch).
 KeyframeFolder ReadKeyframeFolder(const std::string& dir);
+// The same without the depth images (each Keyframe::depth left empty), for streaming long
+// sessions: load each depth with ReadKeyframeDepth when it is needed.
+KeyframeFolder ReadKeyframeFolderIndex(const std::string& dir);
+DepthImage ReadKeyframeDepth(const std::string& dir, const KeyframeFolder& folder, int64_t t_ns);
 void WriteKeyframeFolder(const std::string& dir, const KeyframeFolder& folder);
 // Appends one keyframe to an existing folder (camera.yaml written on first call).
 void AppendKeyframe(const std::string& dir, const PinholeCamera& camera, double depth_scale,
