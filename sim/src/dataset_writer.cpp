@@ -124,9 +124,12 @@ void WriteGroundTruthCsv(const std::string& path, const SplineTrajectory& traj, 
   out << "#timestamp,p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z [],"
          "v_RS_R_x [m s^-1],v_RS_R_y [m s^-1],v_RS_R_z [m s^-1],b_w_RS_S_x [rad s^-1],b_w_RS_S_y [rad s^-1],"
          "b_w_RS_S_z [rad s^-1],b_a_RS_S_x [m s^-2],b_a_RS_S_y [m s^-2],b_a_RS_S_z [m s^-2]\n";
+  Eigen::Quaterniond prev = Eigen::Quaterniond::Identity();
   for (const ImuSample& s : imu) {
     const MotionState m = traj.Evaluate(static_cast<double>(s.t_ns - t0_ns) * 1e-9);
-    const Eigen::Quaterniond q(m.T_map_body.linear());
+    Eigen::Quaterniond q(m.T_map_body.linear());
+    if (q.coeffs().dot(prev.coeffs()) < 0) q.coeffs() *= -1.0;  // no sign flips between rows
+    prev = q;
     out << s.t_ns;
     for (int k = 0; k < 3; ++k) out << ',' << Num(m.p_map[k]);
     out << ',' << Num(q.w()) << ',' << Num(q.x()) << ',' << Num(q.y()) << ',' << Num(q.z());
