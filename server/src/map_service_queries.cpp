@@ -354,11 +354,13 @@ Json MapService::GetJob(int64_t job_id) {
 }
 
 Json MapService::CancelJob(int64_t job_id) {
-  auto state = storage_->RequestCancel(job_id, NowMs());
-  if (!state) throw ApiError(ApiCode::kNotFound, "job " + std::to_string(job_id) + " does not exist");
-  if (*state != "cancelled" && *state != "running") {
-    throw ApiError(ApiCode::kJobNotCancellable, "job is " + *state + "; only queued or running jobs can be cancelled");
+  const auto before = storage_->GetJob(job_id);
+  if (!before) throw ApiError(ApiCode::kNotFound, "job " + std::to_string(job_id) + " does not exist");
+  if (before->state != "queued" && before->state != "running") {
+    throw ApiError(ApiCode::kJobNotCancellable, "job is " + before->state + "; only queued or running jobs can be cancelled");
   }
+  // The state may have moved on since the read; RequestCancel decides atomically.
+  storage_->RequestCancel(job_id, NowMs());
   return GetJob(job_id);
 }
 

@@ -1,0 +1,138 @@
+// Server pieces without a socket: stored-blob formats, config loading, schema versioning,
+// and job cancellation through the MapService facade.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "blob_codec.hpp"
+#include "mapdelta/common/depth_image.hpp"
+#include "mapdelta/common/error.hpp"
+#include "mapdelta/common/log.hpp"
+#include "mapdelta/server/config.hpp"
+#include "mapdelta/server/map_service.hpp"
+#include "sqlite_db.hpp"
+
+namespace mapdelta::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("mds_core_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+TEST(BlobCodec, RoundTripsAndRejectsCorruption) {
+  const PointCloud cloud = {Point(1, 2, 3), Point(-4.5f, 0.25f, 1e6f)};
+  EXPECT_EQ(DecodePoints(EncodePoints(cloud)), cloud);
+  TileAggregate agg;
+  agg[{1, -2, 3}] = AggregateVoxel{Point(0.5f, 0.5f, 0.5f), 7, {3, 9}};
+  const TileAggregate back = DecodeAggregate(EncodeAggregate(agg));
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_EQ(back.begin()->first, (VoxelKey{1, -2, 3}));
+  EXPECT_EQ(back.begin()->second.point_count, 7u);
+  EXPECT_EQ(back.begin()->second.sessions, (std::vector<int64_t>{3, 9}));
+  std::vector<ChangePoint> changes(1);
+  changes[0].position = Point(1, 1, 1);
+  changes[0].kind = ChangeKind::kRemoved;
+  changes[0].confidence = 0.75f;
+  changes[0].observed_by = {1, 2};
+  changes[0].supported_by = {2};
+  const auto c = DecodeChanges(EncodeChanges(changes));
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0].kind, ChangeKind::kRemoved);
+  EXPECT_EQ(c[0].observed_by, (std::vector<int64_t>{1, 2}));
+  EXPECT_EQ(c[0].supported_by, (std::vector<int64_t>{2}));
+
+  Bytes blob = EncodePoints(cloud);
+  Bytes flipped = blob;
+  flipped.back() ^= 0x5a;  // inside the zlib stream
+  EXPECT_THROW(DecodePoints(flipped), Error);
+  Bytes truncated(blob.begin(), blob.begin() + 10);
+  EXPECT_THROW(DecodePoints(truncated), Error);
+  EXPECT_THROW(DecodeAggregate(blob), Error);  // wrong kind
+  Bytes future = blob;
+  future[5] = 99;  // format version
+  EXPECT_THROW(DecodePoints(future), Error);
+}
+
+TEST(Config, ReportsEveryProblemAtOnceAndLoadsTheExample) {
+  const fs::path d = TempDir("config");
+  std::ofstream(d / "bad.yaml") << "http:\n  prot: 1\n  threads: many\nstorage:\n  tile_size_m: -3\nextra: 1\n";
+  try {
+    LoadServerConfig((d / "bad.yaml").string());
+    FAIL() << "bad config accepted";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("4 problem(s)"), std::string::npos) << m;
+    for (const char* key : {"http.prot", "http.threads", "tile_size_m", "config.extra"}) {
+      EXPECT_NE(m.find(key), std::string::npos) << key << " missing in: " << m;
+    }
+  }
+  const ServerConfig example = LoadServerConfig(std::string(MAPDELTA_SOURCE_DIR) + "/config/server.example.yaml");
+  EXPECT_EQ(example.http.port, 8080);
+  EXPECT_DOUBLE_EQ(example.classify.th_ch_m, 3.2);
+  // The effective config echoed at start-up is itself a valid config file.
+  std::ofstream(d / "echo.yaml") << DumpServerConfig(example);
+  EXPECT_EQ(LoadServerConfig((d / "echo.yaml").string()).storage.database, example.storage.database);
+  fs::remove_all(d);
+}
+
+TEST(Storage, RefusesASchemaNewerThanItKnows) {
+  const fs::path d = TempDir("schema");
+  const std::string db = (d / "db.sqlite").string();
+  { OpenSqliteStorage(db); }
+  {
+    sql::Db raw(db);
+    raw.Exec("INSERT INTO schema_migrations VALUES (999, '999_future', 0)");
+  }
+  try {
+    OpenSqliteStorage(db);
+    FAIL() << "newer schema accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kUnsupported);
+    EXPECT_NE(std::string(e.what()).find("999"), std::string::npos);
+  }
+  fs::remove_all(d);
+}
+
+TEST(MapService, CancelAQueuedCommitReopensTheSessionAndFinishedJobsRefuse) {
+  log::SetLevel(log::Level::kWarn);
+  const fs::path d = TempDir("cancel");
+  ServerConfig config;
+  config.storage.database = (d / "db.sqlite").string();
+  MapService service(config, OpenSqliteStorage(config.storage.database));
+  const Json camera{{"width", 8}, {"height", 6}, {"fx", 4}, {"fy", 4}, {"cx", 4}, {"cy", 3}};
+  const int64_t s = service.CreateSession({{"vehicle_id", "v"}, {"camera", camera}})["session_id"];
+  EXPECT_THROW(service.CommitSession(s), ApiError);  // no keyframes yet
+  DepthImage depth(8, 6);
+  depth.at(1, 1) = 5.f;
+  const auto png = EncodeDepthPng(depth);
+  bool stored = false;
+  const Json meta{{"t_ns", 1}, {"T_map_cam", {{"t", {0, 0, 0}}, {"q", {1, 0, 0, 0}}}}};
+  service.PutKeyframe(s, 0, meta, Bytes(png.begin(), png.end()), &stored);
+  ASSERT_TRUE(stored);
+  const int64_t job = service.CommitSession(s)["job_id"];
+  EXPECT_EQ(service.CancelJob(job)["state"], "cancelled");
+  EXPECT_EQ(service.GetSession(s)["state"], "open");
+  try {
+    service.CancelJob(job);
+    FAIL();
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.code(), ApiCode::kJobNotCancellable);
+  }
+  // Committing again works and the job runs to success (no prior: everything is new).
+  const int64_t job2 = service.CommitSession(s)["job_id"];
+  service.RunQueuedJobsNow();
+  const Json j = service.GetJob(job2);
+  EXPECT_EQ(j["state"], "succeeded") << j.dump();
+  EXPECT_EQ(j["result"]["registration"]["status"], "skipped");
+  EXPECT_EQ(service.GetSession(s)["state"], "committed");
+  fs::remove_all(d);
+}
+
+}  // namespace
+}  // namespace mapdelta::server
