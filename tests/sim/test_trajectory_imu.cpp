@@ -2,6 +2,7 @@
 // from the true initial state reproduces the ground-truth position within 1 cm over 10 s.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "mapdelta/sim/generator.hpp"
@@ -58,21 +59,34 @@ TEST(SimImu, Rk4IntegrationReproducesGroundTruthOver10s) {
   const SequencePlan plan = TinyPlan("S1_01");
   ASSERT_GE(plan.duration_s, 10.0);
   const double rate = 200.0;
-  const auto imu = SimulateImu(plan.trajectory, 0, rate, 10.0, NoiseFor(NoiseLevel::kNone), 7);
+  // A 10 s window around the sharpest turn, so rotation matters.
+  double t_max = 0, w_max = 0;
+  for (double t = 0; t < plan.duration_s; t += 0.05) {
+    const double w = std::abs(plan.trajectory.Evaluate(t).yaw_rate);
+    if (w > w_max) { w_max = w; t_max = t; }
+  }
+  const double t_start = std::floor(std::clamp(t_max - 5.0, 0.0, plan.duration_s - 10.0));
+  const auto all = SimulateImu(plan.trajectory, 0, rate, plan.duration_s, NoiseFor(NoiseLevel::kNone), 7);
+  const size_t k0 = static_cast<size_t>(t_start * rate);
+  const std::vector<ImuSample> imu(all.begin() + static_cast<long>(k0), all.begin() + static_cast<long>(k0 + 2001));
   ASSERT_EQ(imu.size(), 2001u);
-  const MotionState m0 = plan.trajectory.Evaluate(0);
+  const MotionState m0 = plan.trajectory.Evaluate(t_start);
   State s{Eigen::Quaterniond(m0.T_map_body.linear()), m0.p_map, m0.v_map};
   // RK4 with step 2/rate: the middle sample is the midpoint value.
   for (size_t k = 0; k + 2 < imu.size(); k += 2) {
     s = Step(s, 2.0 / rate, imu[k].gyro, imu[k].accel, imu[k + 1].gyro, imu[k + 1].accel, imu[k + 2].gyro,
              imu[k + 2].accel);
   }
-  const MotionState m1 = plan.trajectory.Evaluate(10.0);
+  const MotionState m1 = plan.trajectory.Evaluate(t_start + 10.0);
+  RecordProperty("position_error_m", std::to_string((s.p - m1.p_map).norm()));
   EXPECT_LT((s.p - m1.p_map).norm(), 0.01) << "position error after 10 s";
   EXPECT_LT((s.v - m1.v_map).norm(), 0.005);
   EXPECT_LT(Eigen::AngleAxisd(s.q.toRotationMatrix().transpose() * m1.T_map_body.linear()).angle(), 1e-4);
-  // And the ground truth actually moved (not a trivially static trajectory).
+  // And the ground truth actually moved and turned (not a trivially straight flight).
   EXPECT_GT((m1.p_map - m0.p_map).norm(), 20.0);
+  double turned = 0;
+  for (size_t k = 0; k < imu.size(); ++k) turned += std::abs(imu[k].gyro.z()) / rate;
+  EXPECT_GT(turned, 1.0) << "the first 10 s should include a corner";
 }
 
 TEST(SimImu, SpecificForceMatchesFiniteDifferencesOfGroundTruth) {
