@@ -103,6 +103,15 @@ int RunPipeline(int argc, char** argv) {
   }
   const ClientConfig config = args.Has("config") ? LoadClientConfig(args.Get("config")) : ClientConfig{};
   const std::string out = args.Get("out");
+  // A second run into the same folder would append a second copy of the keyframes (and a
+  // second series of uploads into the first run's session): refuse, and say how to resume.
+  if (fs::exists(out + "/keyframes") || fs::exists(out + "/keyframes.upload_queue")) {
+    std::fprintf(stderr,
+                 "%s already holds the output of an earlier run. Resume its upload with\n"
+                 "  mapdelta-client upload %s/keyframes --server URL --token T\n"
+                 "or choose another --out.\n", out.c_str(), out.c_str());
+    return 2;
+  }
   fs::create_directories(out);
   std::ofstream(out + "/config.yaml") << ToYaml(config);
   MD_LOG(kInfo, "effective configuration written to " << out << "/config.yaml");

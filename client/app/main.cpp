@@ -15,7 +15,7 @@ void PrintUsage() {
                "commands:\n"
                "  disparity LEFT RIGHT OUT [--num-disparities N] [--config FILE]\n"
                "            one pair's SGBM disparity with the production settings (.pfm/.tif)\n"
-               "  run --sequence DIR (--prior FILE | --server URL --token T) --out DIR ...\n"
+               "  run --sequence DIR --odometry vio|FILE (--prior FILE | --server URL --token T) --out DIR\n"
                "            the whole pipeline over a recorded sequence\n"
                "  upload DIR --server URL --token T\n"
                "            upload a keyframe folder written in offline mode\n"

@@ -79,6 +79,7 @@ UploadReport Uploader::Run(const std::atomic<bool>& stop) {
   double delay = config_.retry_initial_s;
   while (!stop) {
     const UploadState state = queue_->State();
+    if (state.session_id) report.session_id = *state.session_id;
     if (state.committed) {
       report.committed = true;
       break;
@@ -110,7 +111,6 @@ UploadReport Uploader::Run(const std::atomic<bool>& stop) {
       report.fatal = "create session: " + Describe(r);
       break;
     }
-    report.session_id = *state.session_id;
     // 2. The oldest pending keyframe.
     if (const auto item = queue_->Front()) {
       const std::string path = SessionPath() + "/keyframes/" + std::to_string(item->seq);
