@@ -8,7 +8,7 @@ int main(int argc, char** argv) {
   using namespace mapdelta::tools;
   const std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty() || WantsHelp(args)) {
-    std::cout << kEvalUsage;
+    (args.empty() ? std::cerr : std::cout) << kEvalUsage;  // no arguments is a usage error
     return args.empty() ? 2 : 0;
   }
   const std::vector<std::string> rest(args.begin() + 1, args.end());
