@@ -63,6 +63,7 @@ Bytes Seal(Kind kind, const Bytes& raw) {
   }
   z.resize(bound);
   Writer w;
+  w.buf().reserve(32 + z.size());  // also keeps GCC 12 from a false -Wstringop-overflow
   for (char c : kMagic) w.Put(c);
   w.Put(static_cast<uint8_t>(kind));
   w.Put(kFormatVersion);

@@ -46,6 +46,7 @@ static files at / (default: the built web/dist; "" turns it off). Exit codes: 0 
 )";
 
 struct Args {
+  bool help = false;
   std::vector<std::string> positional;
   std::map<std::string, std::string> options;
 };
@@ -55,10 +56,16 @@ Args ParseArgs(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     std::string s = argv[i];
     if (s == "--help" || s == "-h") {
-      a.options["help"] = "1";
+      a.help = true;
     } else if (s.rfind("--", 0) == 0) {
-      if (i + 1 >= argc) throw md::Error(md::ErrorCode::kInvalidArgument, "option " + s + " needs a value");
-      a.options[s.substr(2)] = argv[++i];
+      if (i + 1 >= argc) {
+        std::string message = "option ";  // built in steps: GCC 12 warns falsely on "x" + s
+        message += s;
+        message += " needs a value";
+        throw md::Error(md::ErrorCode::kInvalidArgument, message);
+      }
+      const std::string value(argv[++i]);
+      a.options.insert_or_assign(s.substr(2), value);
     } else {
       a.positional.push_back(s);
     }
@@ -191,9 +198,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "error: %s\n\n%s", e.what(), kUsage);
     return 2;
   }
-  if (args.options.count("help") || args.positional.empty()) {
+  if (args.help || args.positional.empty()) {
     std::printf("%s", kUsage);
-    return args.options.count("help") ? 0 : 2;
+    return args.help ? 0 : 2;
   }
   const std::string& command = args.positional[0];
   try {

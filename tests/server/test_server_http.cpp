@@ -155,6 +155,16 @@ TEST_F(ServerHttpTest, AuthRolesAnd401Vs403) {
   ASSERT_TRUE(service_->storage().RevokeToken(t.record.id, NowMs()));
   EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer " + t.secret))).first, 401);
   EXPECT_EQ(Call(client_->Get("/nope", H(admin_))).first, 404);
+  // The OpenAPI document is served and names every route the server has.
+  auto doc = client_->Get("/v1/openapi.yaml");
+  ASSERT_TRUE(doc && doc->status == 200);
+  for (const char* route : {"/v1/sessions/{session_id}/keyframes/{seq}:", "/v1/changes/tiles/{tile}:", "/v1/admin/jobs/{job_id}/cancel:"}) {
+    EXPECT_NE(doc->body.find(route), std::string::npos) << route;
+  }
+  // Request ids: a client's own id is echoed.
+  auto echoed = client_->Get("/health", {{"X-Request-Id", "trace-42"}});
+  ASSERT_TRUE(echoed);
+  EXPECT_EQ(echoed->get_header_value("X-Request-Id"), "trace-42");
 }
 
 TEST_F(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
@@ -246,7 +256,9 @@ TEST_F(ServerHttpTest, TwoSessionsChangesAndRefresh) {
     // Exact poses: GICP may accept (a tiny correction) or reject (planar scene, slow
     // convergence); either way the poses must stay put.
     const Json& reg = job["result"]["registration"];
-    if (reg["status"] == "accepted") EXPECT_LT(reg["correction_m"].get<double>(), 0.2) << reg.dump();
+    if (reg["status"] == "accepted") {
+      EXPECT_LT(reg["correction_m"].get<double>(), 0.2) << reg.dump();
+    }
     EXPECT_NE(reg["status"], "skipped") << reg.dump();
   }
   EXPECT_EQ(Call(client_->Get("/v1/sessions/" + std::to_string(s1), H(reader_))).second["state"], "committed");
