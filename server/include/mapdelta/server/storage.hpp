@@ -94,6 +94,8 @@ struct RefreshTileWrite {
   Bytes points;
 };
 
+// A rectangle of tile indices, inclusive: tiles with min_x <= ix <= max_x and
+// min_y <= iy <= max_y (the service converts metric boxes with TileGrid::TileOf).
 struct Rect {
   double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };
