@@ -267,6 +267,26 @@ void RegisterRoutes(httplib::Server& s, MapService& svc) {
            WriteJson(res, 200, svc.CancelJob(PathInt(req, 1)));
          }));
 
+  // Body limits per route, checked on Content-Length before the body is read (so that a
+  // JSON endpoint never buffers a prior-sized body). The handlers check again after reading.
+  s.set_pre_routing_handler([&svc, json_limit, keyframe_limit, prior_limit](const Req& req, Res& res) {
+    if (!req.has_header("Content-Length")) return httplib::Server::HandlerResponse::Unhandled;
+    const int64_t limit = req.path == "/v1/admin/prior" ? prior_limit
+                          : req.method == "PUT"         ? keyframe_limit
+                                                        : json_limit;
+    const uint64_t length = std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10);
+    if (length <= static_cast<uint64_t>(limit)) return httplib::Server::HandlerResponse::Unhandled;
+    const std::string request_id = RequestId(req);
+    res.set_header("X-Request-Id", request_id);
+    WriteError(res, ApiCode::kPayloadTooLarge,
+               "body of " + std::to_string(length) + " bytes exceeds this route's limit of " + std::to_string(limit),
+               request_id);
+    svc.metrics().CountRequest("(body too large)", res.status, 0);
+    MD_LOG(kInfo, "request_id=" << request_id << " method=" << req.method << " path=" << req.path
+                                << " status=413 bytes_declared=" << length);
+    return httplib::Server::HandlerResponse::Handled;
+  });
+
   // Anything httplib answers by itself (unknown route, body over the global limit) gets the
   // same JSON error shape.
   s.set_error_handler([](const Req& req, Res& res) {

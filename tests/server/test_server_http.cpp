@@ -176,6 +176,8 @@ TEST_F(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
   EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), "{\"vehicle_id\":", "application/json")), "invalid_json");
   EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), R"({"vehicle_id":"x","camera":{"width":-1}})", "application/json")), "invalid_argument");
   EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), std::string(70000, ' '), "application/json")), "payload_too_large");
+  // A keyframe-sized body is fine for PUT but too large for a JSON route.
+  EXPECT_EQ(code(client_->Post("/v1/admin/jobs", H(admin_), std::string(200000, ' '), "application/json")), "payload_too_large");
   EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), "{}", "text/plain")), "unsupported_media_type");
   // Keyframes: bad PNG, wrong size, NaN-ish pose, non-unit quaternion, unknown session.
   EXPECT_EQ(code(PutKeyframe(s, 0, MetaJson(1, T), "not a png")), "invalid_image");
