@@ -73,17 +73,17 @@ trap stop_server EXIT
 step "install dependencies and build"
 if [ "$do_build" = 1 ]; then
   "$root/deploy/install-deps.sh"
+  export CCACHE_BASEDIR=$root
   cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
   cmake --build "$build_dir" -j "$(nproc)" --target mapdelta-sim mapdelta-server mapdelta-client \
-    mapdelta-vio mapdelta-eval mapdelta-detect
+    mapdelta-eval mapdelta-detect
 fi
 sim=$build_dir/sim/mapdelta-sim
 server=$build_dir/server/mapdelta-server
 client=$build_dir/client/mapdelta-client
-vio=$build_dir/client/vio/mapdelta-vio
 eval_tool=$build_dir/tools/mapdelta-eval
 detect=$build_dir/tools/mapdelta-detect
-for bin in "$sim" "$server" "$client" "$vio" "$eval_tool" "$detect"; do
+for bin in "$sim" "$server" "$client" "$eval_tool" "$detect"; do
   [ -x "$bin" ] || { echo "main-job: missing binary $bin (build first)" >&2; exit 1; }
 done
 rm -rf "$out"
@@ -147,10 +147,7 @@ step "drive the vehicles: VIO, stereo depth, temporal filter, GICP to prior tile
 IFS=, read -r -a seq_list <<<"$sequences"
 for seq in "${seq_list[@]}"; do
   echo "--- vehicle on $seq" >&2
-  mkdir -p "$out/clients/$seq"
-  "$vio" --sequence "$dataset/sequences/$seq" --out "$out/clients/$seq/vio_frames.txt" \
-    --log-level warn
-  "$client" run --sequence "$dataset/sequences/$seq" --odometry "$out/clients/$seq/vio_frames.txt" \
+  "$client" run --sequence "$dataset/sequences/$seq" --odometry vio \
     --server "$url" --token "$vehicle_token" --out "$out/clients/$seq"
 done
 
