@@ -105,8 +105,7 @@ void SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
   prior_->AddResidualBlock(new ceres::AutoDiffCostFunction<StatePrior, 10, 7, 9>(prior), nullptr,
                            {first.pose, first.sb});
   prior_->Marginalize();
-  EstimatorOutput unused;
-  Optimize(&unused);
+  Optimize();
   RemoveOutliers();
   while (static_cast<int>(window_.size()) > config_.window_keyframes) MarginalizeOldest();
 }
@@ -152,8 +151,7 @@ void SlidingWindowEstimator::RemoveFrameObservations(int64_t t_ns) {
 
 void SlidingWindowEstimator::Triangulate(Landmark* lm) const {
   // Rays of every observation (left and right) in the anchor's cam0 frame.
-  const auto& [t_anchor, anchor_obs] = *lm->obs.begin();
-  const Frame* anchor = FindFrame(t_anchor);
+  const Frame* anchor = FindFrame(lm->obs.begin()->first);
   const SE3 T_w_c0a = ArrayToPose(anchor->pose) * ext_.T_body_cam0;
   const SE3 T_c0a_w = T_w_c0a.inverse();
   std::vector<Ray> rays;
@@ -172,7 +170,6 @@ void SlidingWindowEstimator::Triangulate(Landmark* lm) const {
   // Depth along the anchor's left ray (its own pixel defines the landmark direction).
   lm->inv_depth = 1.0 / P->z();
   lm->has_depth = true;
-  (void)anchor_obs;
 }
 
 bool SlidingWindowEstimator::IsKeyframe(const FrameFeatures& features) const {
@@ -236,7 +233,7 @@ EstimatorOutput SlidingWindowEstimator::AddFrame(const FrameFeatures& features,
 
   // 3. Optimize and clean up.
   const auto t_opt = std::chrono::steady_clock::now();
-  Optimize(&out);
+  Optimize();
   RemoveOutliers();
   out.optimize_ms = MsSince(t_opt);
 

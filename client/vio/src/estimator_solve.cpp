@@ -47,7 +47,7 @@ void SlidingWindowEstimator::AllFactors(FactorList* out) {
   for (auto& [id, lm] : landmarks_) LandmarkFactors(&lm, out);
 }
 
-void SlidingWindowEstimator::Optimize(EstimatorOutput* /*out*/) {
+void SlidingWindowEstimator::Optimize() {
   ceres::Problem::Options options;
   options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;

@@ -74,7 +74,7 @@ class SlidingWindowEstimator {
   void RemoveFrameObservations(int64_t t_ns);
   void Triangulate(Landmark* lm) const;
   bool IsKeyframe(const FrameFeatures& features) const;
-  void Optimize(EstimatorOutput* out);
+  void Optimize();
   using FactorList = std::vector<std::pair<ceres::CostFunction*, std::vector<double*>>>;
   // Visual factors of a landmark (empty if it constrains no pose); caller owns them.
   void LandmarkFactors(Landmark* lm, FactorList* out) const;
