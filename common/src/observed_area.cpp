@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
+#include <limits>
 #include <vector>
+
+#include <opencv2/imgproc.hpp>
 
 #include "mapdelta/common/error.hpp"
 #include "observed_area_impl.hpp"
@@ -22,11 +25,36 @@ void CheckParams(const PinholeCamera& camera, const DepthImage& depth, const Obs
   }
   const auto positive = [](double v) { return std::isfinite(v) && v > 0; };
   if (!positive(p.max_depth_m) || !positive(p.free_ray_m) || !positive(p.prefilter_voxel_m) ||
-      p.pixel_stride < 1) {
+      p.pixel_stride < 1 || p.free_ray_bound_window_px < 0) {
     throw Error(ErrorCode::kInvalidArgument,
-                "observed area: max_depth_m, free_ray_m, prefilter_voxel_m must be > 0 and "
-                "pixel_stride >= 1");
+                "observed area: max_depth_m, free_ray_m, prefilter_voxel_m must be > 0, "
+                "pixel_stride >= 1 and free_ray_bound_window_px >= 0");
   }
+}
+
+// For free_ray_bound_window_px = W: per pixel, the smallest valid depth within +-W pixels
+// (infinity if none). A grey-scale erosion with a (2W+1)^2 rectangle is exactly that min
+// filter; OpenCV runs it separably. Invalid pixels are +inf so they never win; replicating the
+// border is exact for a min filter (the replicated edge pixel is inside the window anyway).
+std::vector<float> NearestDepthAround(const DepthImage& depth, int window_px) {
+  const float inf = std::numeric_limits<float>::infinity();
+  cv::Mat in(depth.height, depth.width, CV_32F);
+  for (int v = 0; v < depth.height; ++v) {
+    float* row = in.ptr<float>(v);
+    for (int u = 0; u < depth.width; ++u) {
+      const float d = depth.at(u, v);
+      row[u] = (std::isfinite(d) && d > 0.f) ? d : inf;
+    }
+  }
+  cv::Mat out;
+  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * window_px + 1, 2 * window_px + 1));
+  cv::erode(in, out, kernel, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  std::vector<float> result(static_cast<size_t>(depth.width) * depth.height);
+  for (int v = 0; v < depth.height; ++v) {
+    const float* row = out.ptr<float>(v);
+    std::copy(row, row + depth.width, result.begin() + static_cast<ptrdiff_t>(v) * depth.width);
+  }
+  return result;
 }
 
 octomap::point3d ToOcto(const Point& p) { return {p.x(), p.y(), p.z()}; }
@@ -123,6 +151,9 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
   const float free_depth = static_cast<float>(params.free_ray_m);
   EndPointFilter hit_filter(static_cast<float>(params.prefilter_voxel_m));
   EndPointFilter free_filter(static_cast<float>(params.prefilter_voxel_m));
+  const std::vector<float> nearest = params.free_ray_bound_window_px > 0
+                                         ? NearestDepthAround(depth, params.free_ray_bound_window_px)
+                                         : std::vector<float>();
   for (int v = 0; v < camera.height; v += params.pixel_stride) {
     const float y = (static_cast<float>(v) - cy) * inv_fy;
     for (int u = 0; u < camera.width; u += params.pixel_stride) {
@@ -130,7 +161,12 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
       const bool valid = std::isfinite(d) && d > 0.f;
       const bool hit = valid && d < max_depth;
       // A depth beyond th_d still says the space before it is free: never cast past it.
-      const float z = hit ? d : (valid ? std::min(d, free_depth) : free_depth);
+      // Without depth: th_f (paper), or with the bound no further than the nearest surface seen
+      // around the pixel (nearest[] is +inf when the window holds no depth).
+      const float no_depth = nearest.empty()
+                                 ? free_depth
+                                 : std::min(free_depth, nearest[static_cast<size_t>(v) * camera.width + u]);
+      const float z = hit ? d : (valid ? std::min(d, free_depth) : no_depth);
       const Point p_map = T * Point((static_cast<float>(u) - cx) * inv_fx * z, y * z, z);
       (hit ? hit_filter : free_filter).Add(p_map);
     }

@@ -1,7 +1,8 @@
 // The commit job: a session's keyframes become per-tile aggregated evidence and new changes.
 //   1. session cloud: back-project depth < th_d (every pixel_stride-th pixel), voxel filter
 //   2. GICP-align it to the prior (paper step 2); a rejected alignment keeps the poses
-//   3. the session's observed octree (hits < th_d, free rays of th_f), with the corrected poses
+//   3. the session's observed octree (hits < th_d, free rays of th_f, bounded by
+//      free_ray_bound_px), with the corrected poses
 //   4. per touched tile, one transaction: add the session's voxels (support) and membership
 //   5. reclassify touched tiles and their neighbours (paper Alg. 1 + 2 on the aggregate)
 #include <chrono>
@@ -195,6 +196,7 @@ Json RunCommitJob(JobContext& ctx) {
   op.resolution_m = pc.octree_resolution_m;
   op.max_depth_m = pc.max_depth_m;
   op.free_ray_m = pc.free_space_depth_m;
+  op.free_ray_bound_window_px = pc.free_ray_bound_px;
   op.prefilter_voxel_m = pc.octree_resolution_m;
   // Rays through every pixel_stride-th pixel: at 800x450 and a 0.8 m octree, neighbouring
   // rays fall into the same voxels for most of their length (4x fewer rays at stride 2).

@@ -73,6 +73,8 @@ void CollectRangeProblems(const ServerConfig& c, std::vector<std::string>* p) {
   Check(q.max_depth_m > 0 && q.max_depth_m <= 65.0, "pipeline.max_depth_m: must be in (0, 65]", p);
   Check(q.free_space_depth_m >= 0 && q.free_space_depth_m <= q.max_depth_m,
         "pipeline.free_space_depth_m: must be in [0, max_depth_m]", p);
+  Check(q.free_ray_bound_px >= 0 && q.free_ray_bound_px <= 4096,
+        "pipeline.free_ray_bound_px: must be in [0, 4096]", p);
   Check(q.session_voxel_m >= 0.05 && q.session_voxel_m <= 5, "pipeline.session_voxel_m: must be in [0.05, 5]", p);
   Check(q.octree_resolution_m >= 0.05 && q.octree_resolution_m <= 5,
         "pipeline.octree_resolution_m: must be in [0.05, 5]", p);
@@ -144,6 +146,7 @@ ServerConfig LoadServerConfig(const std::string& path) {
       PipelineConfig& q = c.pipeline;
       s.Get("max_depth_m", &q.max_depth_m);
       s.Get("free_space_depth_m", &q.free_space_depth_m);
+      s.Get("free_ray_bound_px", &q.free_ray_bound_px);
       s.Get("session_voxel_m", &q.session_voxel_m);
       s.Get("octree_resolution_m", &q.octree_resolution_m);
       s.Get("pixel_stride", &q.pixel_stride);
@@ -190,6 +193,7 @@ std::string DumpServerConfig(const ServerConfig& c) {
   e << YAML::Key << "pipeline" << YAML::Value << YAML::BeginMap
     << YAML::Key << "max_depth_m" << YAML::Value << q.max_depth_m
     << YAML::Key << "free_space_depth_m" << YAML::Value << q.free_space_depth_m
+    << YAML::Key << "free_ray_bound_px" << YAML::Value << q.free_ray_bound_px
     << YAML::Key << "session_voxel_m" << YAML::Value << q.session_voxel_m
     << YAML::Key << "octree_resolution_m" << YAML::Value << q.octree_resolution_m
     << YAML::Key << "pixel_stride" << YAML::Value << q.pixel_stride

@@ -88,6 +88,37 @@ TEST(ObservedArea, FreeRayStopsAtADepthBeyondMaxDepth) {
   }
 }
 
+// A wall at 6 m with a 20x20 px hole in its depth image (as stereo leaves on textureless
+// walls). The paper's rule casts th_f rays through the hole and marks the space behind the
+// wall observed; the bounded rule (window wider than the hole's half-width of 10 px) ends those
+// rays at the wall, a window narrower than that falls back to th_f in the hole's centre.
+TEST(ObservedArea, FreeRayBoundStopsRaysThroughAHoleInAWall) {
+  const PinholeCamera camera = SmallCamera();
+  DepthImage depth = Wall(camera, 6.f);
+  for (int v = 38; v < 58; ++v)
+    for (int u = 54; u < 74; ++u) depth.at(u, v) = 0.f;  // hole: |x|/z, |y|/z < 10/80
+  const auto behind_hole = [](float z) { return Point(0.05f * z, -0.04f * z, z); };  // inside
+  const auto insert = [&](int window_px) {
+    ObservedAreaParams params = Params();
+    params.free_ray_bound_window_px = window_px;
+    ObservedArea area(0.4);
+    area.InsertKeyframe(camera, SE3::Identity(), depth, params);
+    return area;
+  };
+  const ObservedArea paper = insert(0), bounded = insert(16), narrow = insert(4);
+  for (float z = 8.f; z < 19.f; z += 0.5f) {
+    EXPECT_TRUE(paper.IsObserved(behind_hole(z))) << z;
+    EXPECT_FALSE(bounded.IsObserved(behind_hole(z))) << z;
+    EXPECT_TRUE(narrow.IsObserved({0.f, 0.f, z})) << z;  // hole centre: no depth within 4 px
+  }
+  for (float z = 1.f; z < 5.f; z += 0.5f) {
+    EXPECT_TRUE(bounded.IsObserved(behind_hole(z))) << z;  // in front of the wall: free
+  }
+  // Away from the hole the wall occludes in every variant.
+  EXPECT_FALSE(bounded.IsObserved({3.f, 2.f, 12.f}));
+  EXPECT_FALSE(paper.IsObserved({3.f, 2.f, 12.f}));
+}
+
 TEST(ObservedArea, PoseMovesTheObservedSpace) {
   const PinholeCamera camera = SmallCamera();
   SE3 T_map_cam = SE3::Identity();
@@ -140,6 +171,9 @@ TEST(ObservedArea, RejectsBadInput) {
   ObservedArea area(0.4);
   EXPECT_THROW(area.InsertKeyframe(camera, SE3::Identity(), DepthImage(10, 10), Params()), Error);
   EXPECT_THROW(ObservedArea(0.0), Error);
+  ObservedAreaParams negative_window = Params();
+  negative_window.free_ray_bound_window_px = -1;
+  EXPECT_THROW(area.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 10.f), negative_window), Error);
   EXPECT_THROW(ObservedArea::Load("/nonexistent/x.bt"), Error);
   area.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 10.f), Params());
   const std::string good = area.SerializeBinary();

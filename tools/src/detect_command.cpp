@@ -27,6 +27,8 @@ const char* const kDetectUsage = R"(usage:
       --th-ch M      change threshold th_ch (3.2)
       --th-d M       max depth th_d for the global cloud and hit rays (50)
       --th-f M       free-space ray depth th_f for pixels without depth (20)
+      --free-ray-bound W   end each no-depth free ray at the nearest valid depth within
+                     +-W pixels (0 = the paper's rule: always th_f) (0)
       --rho-o M      octree resolution rho_o (0.8)
       --voxel M      cloud downsampling before comparing (0.8)
       --stride N     use every N-th pixel for ray casting (1)
@@ -56,7 +58,7 @@ AlignFunction GicpAlignment() {
 }  // namespace
 
 int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
-  const CliArgs cli(args, {"prior", "keyframes", "out", "th-ch", "th-d", "th-f", "rho-o", "voxel",
+  const CliArgs cli(args, {"prior", "keyframes", "out", "th-ch", "th-d", "th-f", "free-ray-bound", "rho-o", "voxel",
                            "stride", "align"},
                     {});
   if (!cli.positionals().empty()) {
@@ -67,6 +69,7 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
   params.cloud_voxel_m = cli.GetDouble("voxel", params.cloud_voxel_m);
   params.observed.max_depth_m = cli.GetDouble("th-d", params.observed.max_depth_m);
   params.observed.free_ray_m = cli.GetDouble("th-f", params.observed.free_ray_m);
+  params.observed.free_ray_bound_window_px = cli.GetInt("free-ray-bound", 0);
   params.observed.resolution_m = cli.GetDouble("rho-o", params.observed.resolution_m);
   params.observed.prefilter_voxel_m = params.observed.resolution_m;
   params.observed.pixel_stride = cli.GetInt("stride", 1);
@@ -112,7 +115,8 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
   nlohmann::json summary = {
       {"prior", prior_path}, {"keyframes", keyframes.keyframes.size()},
       {"th_ch_m", params.th_ch_m}, {"th_d_m", params.observed.max_depth_m},
-      {"th_f_m", params.observed.free_ray_m}, {"rho_o_m", params.observed.resolution_m},
+      {"th_f_m", params.observed.free_ray_m},
+      {"free_ray_bound_window_px", params.observed.free_ray_bound_window_px}, {"rho_o_m", params.observed.resolution_m},
       {"cloud_voxel_m", params.cloud_voxel_m}, {"align", align},
       {"T_prior_global", T_row_major},
       {"global_points", result.global.size()}, {"observed_prior_points", result.observed_prior.size()},

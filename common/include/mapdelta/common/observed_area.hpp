@@ -18,6 +18,14 @@ struct ObservedAreaParams {
   double free_ray_m = 20.0;        // th_f: depth of the free-space ray cast for pixels without depth
   double prefilter_voxel_m = 0.8;  // ray end points are voxel-filtered first (big speed-up)
   int pixel_stride = 1;            // use every n-th pixel in u and v
+  // Free-ray bound (not in the paper). 0 = the paper's rule: every pixel without depth casts a
+  // free ray of th_f. W > 0: such a ray ends at min(th_f, the smallest valid depth within
+  // +-W pixels in u and v); with no valid depth in that window it stays th_f. Why: stereo
+  // leaves holes on near surfaces (unmatched band, LR/uniqueness rejects, textureless walls);
+  // a th_f ray through such a hole crosses the wall and marks prior points behind it observed,
+  // which then become false "removed" points. Space before the nearest surface seen around
+  // the pixel is known free; beyond it is unknown.
+  int free_ray_bound_window_px = 0;
 };
 
 class ObservedArea {
@@ -31,7 +39,8 @@ class ObservedArea {
 
   // Rays from the camera centre to every valid depth < max_depth_m (end voxel occupied, the
   // rest free), and free rays to depth free_ray_m for pixels with no depth (for a depth beyond
-  // max_depth_m: to min(depth, free_ray_m), space known to be free). Depth is along the optical
+  // max_depth_m: to min(depth, free_ray_m), space known to be free; with
+  // free_ray_bound_window_px > 0 a no-depth ray is shortened, see ObservedAreaParams). Depth is along the optical
   // axis, so is a free ray's length. End points are voxel-filtered first. Throws
   // Error(kInvalidArgument) when the depth image does not match the camera or params are bad.
   void InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_cam, const DepthImage& depth,
