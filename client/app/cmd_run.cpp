@@ -157,7 +157,7 @@ int RunPipeline(int argc, char** argv) {
   if (transport && !args.Has("no-upload")) {
     queue = std::make_unique<UploadQueue>(out + "/keyframes.upload_queue");
     const EurocSequence seq = ReadEurocSequence(in.sequence_dir);
-    uploader = std::make_unique<Uploader>(config.upload, MakeRectifiedStereoRig(seq).left, queue.get(), transport.get());
+    uploader = std::make_unique<Uploader>(config.upload, KeyframeCamera(config, MakeRectifiedStereoRig(seq).left), queue.get(), transport.get());
     in.uploader = uploader.get();
     upload_thread = std::thread([&] {
       upload_report = uploader->Run(stop);

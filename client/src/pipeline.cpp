@@ -237,6 +237,10 @@ class Backend {
 
 }  // namespace
 
+PinholeCamera KeyframeCamera(const ClientConfig& config, const PinholeCamera& left) {
+  return CropLeftBand(left, StereoDepth(config.stereo).UnmatchedBandFor(left.width));
+}
+
 PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in) {
   if (in.odometry == nullptr) throw Error(ErrorCode::kInvalidArgument, "pipeline needs an odometry source");
   const auto wall_start = std::chrono::steady_clock::now();
@@ -286,12 +290,16 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
     depth_queue.Close();
   });
 
-  // Stage C: keyframe folder + upload queue.
+  // Stage C: keyframe folder + upload queue, without the band SGBM cannot match (see
+  // CropLeftBand; the uploader's session camera is KeyframeCamera(), the same crop).
   std::thread stage_c([&] {
     try {
+      const int band = StereoDepth(config.stereo).UnmatchedBandFor(rig.left.width);
+      const PinholeCamera out_camera = CropLeftBand(rig.left, band);
       while (auto f = output_queue.Pop()) {
         StageTimer::Scope t(&timer, "6 output + upload queue");
-        if (!in.keyframe_dir.empty()) AppendKeyframe(in.keyframe_dir, rig.left, config.upload.depth_scale, f->keyframe);
+        f->keyframe.depth = CropLeftBand(f->keyframe.depth, band);
+        if (!in.keyframe_dir.empty()) AppendKeyframe(in.keyframe_dir, out_camera, config.upload.depth_scale, f->keyframe);
         if (in.uploader != nullptr) in.uploader->Enqueue(f->keyframe);
       }
     } catch (...) {

@@ -3,6 +3,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -39,6 +40,38 @@ int StereoDepth::NumDisparitiesFor(int width) const {
   const auto& c = impl_->config;
   const double scaled = static_cast<double>(c.num_disparities) * width / c.reference_width;
   return std::max(16, static_cast<int>(std::ceil(scaled / 16.0)) * 16);
+}
+
+int StereoDepth::UnmatchedBandFor(int width) const {
+  if (width <= 1) return 0;
+  return std::clamp(impl_->config.min_disparity + NumDisparitiesFor(width), 0, width - 1);
+}
+
+namespace {
+void CheckBand(int band, int width) {
+  if (band < 0 || band >= width) {
+    throw Error(ErrorCode::kInvalidArgument, "stereo: crop band " + std::to_string(band) +
+                                                 " px is outside [0, width " + std::to_string(width) + ")");
+  }
+}
+}  // namespace
+
+PinholeCamera CropLeftBand(const PinholeCamera& camera, int band) {
+  CheckBand(band, camera.width);
+  PinholeCamera out = camera;
+  out.width -= band;
+  out.cx -= band;
+  return out;
+}
+
+DepthImage CropLeftBand(const DepthImage& depth, int band) {
+  CheckBand(band, depth.width);
+  DepthImage out(depth.width - band, depth.height);
+  for (int v = 0; v < depth.height; ++v) {
+    const auto row = depth.depth_m.begin() + static_cast<ptrdiff_t>(v) * depth.width;
+    std::copy(row + band, row + depth.width, out.depth_m.begin() + static_cast<ptrdiff_t>(v) * out.width);
+  }
+  return out;
 }
 
 DisparityImage StereoDepth::ComputeDisparity(const GrayImage& left, const GrayImage& right) const {

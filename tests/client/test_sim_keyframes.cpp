@@ -14,6 +14,7 @@
 #include "mapdelta/client/temporal_filter.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/keyframes.hpp"
+#include "support/temp_dir.hpp"
 
 namespace mapdelta::client {
 namespace {
@@ -79,7 +80,7 @@ TEST(SimKeyframes, PipelineStartsFromARoughGuessAndWritesKeyframes) {
   config.keyframes.min_translation_m = 0.5;  // the fixture's frames are ~1 m apart
   TrajectoryOdometrySource odometry(seq.groundtruth);
   FilePriorSource prior(kSimDir + "prior_original_crop.pcd", config.registration.prior_voxel_m);
-  const auto out = std::filesystem::temp_directory_path() / "mapdelta_client_sim_kf";
+  const auto out = mapdelta::testing::FreshTempDir("mapdelta_client_sim_kf");
   std::filesystem::remove_all(out);
 
   SE3 truth0;
@@ -110,7 +111,9 @@ TEST(SimKeyframes, PipelineStartsFromARoughGuessAndWritesKeyframes) {
   }
   const KeyframeFolder folder = ReadKeyframeFolder(out.string());
   ASSERT_EQ(folder.keyframes.size(), 5u);
-  EXPECT_EQ(folder.camera.width, 400);
+  // 400 px wide minus the unmatched band (128 disparities at 800 px -> 64 at 400 px).
+  EXPECT_EQ(folder.camera.width, 400 - 64);
+  EXPECT_DOUBLE_EQ(folder.camera.cx, MakeRectifiedStereoRig(seq).left.cx - 64);
   EXPECT_GT(folder.keyframes[2].depth.CountValid(), 1000u);
 }
 

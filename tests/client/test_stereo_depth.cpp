@@ -13,6 +13,7 @@
 #include "mapdelta/client/image.hpp"
 #include "mapdelta/client/stereo_depth.hpp"
 #include "mapdelta/common/error.hpp"
+#include "support/temp_dir.hpp"
 
 namespace mapdelta::client {
 namespace {
@@ -124,8 +125,42 @@ TEST(StereoDepth, RejectsMismatchedImages) {
   EXPECT_THROW(ReadGrayImage(kStereoDir + "missing.png"), Error);
 }
 
+// The unmatched band: u < min_disparity + num_disparities has no right-image candidate, so
+// SGBM leaves it empty; the crop must keep every other pixel's depth and ray unchanged.
+TEST(StereoDepth, CropLeftBandKeepsRaysAndDropsTheUnmatchedBand) {
+  StereoConfig config;  // 128 disparities at 800 px
+  const StereoDepth stereo(config);
+  EXPECT_EQ(stereo.UnmatchedBandFor(800), 128);
+  EXPECT_EQ(stereo.UnmatchedBandFor(400), 64);
+  EXPECT_EQ(stereo.UnmatchedBandFor(40), 16);  // at least 16 disparities (SGBM)
+  EXPECT_EQ(stereo.UnmatchedBandFor(10), 9);   // clamped: one column always stays
+  PinholeCamera camera;
+  camera.width = 40;
+  camera.height = 3;
+  camera.fx = camera.fy = 50;
+  camera.cx = 20;
+  camera.cy = 1.5;
+  DepthImage depth(40, 3);
+  for (int v = 0; v < 3; ++v)
+    for (int u = 0; u < 40; ++u) depth.at(u, v) = 1.f + u + 100.f * v;
+  const int band = 16;
+  const PinholeCamera cropped = CropLeftBand(camera, band);
+  const DepthImage kept = CropLeftBand(depth, band);
+  ASSERT_EQ(cropped.width, 24);
+  ASSERT_EQ(kept.width, 24);
+  ASSERT_EQ(kept.height, 3);
+  for (int v = 0; v < 3; ++v)
+    for (int u = 0; u < 24; ++u) {
+      EXPECT_EQ(kept.at(u, v), depth.at(u + band, v));
+      const double z = kept.at(u, v);
+      EXPECT_LT((cropped.BackProject(u, v, z) - camera.BackProject(u + band, v, z)).norm(), 1e-9);
+    }
+  EXPECT_THROW(CropLeftBand(camera, 40), Error);
+  EXPECT_THROW(CropLeftBand(depth, -1), Error);
+}
+
 TEST(StereoDepth, PfmRoundTrip) {
-  const auto path = (std::filesystem::temp_directory_path() / "mapdelta_client_rt.pfm").string();
+  const auto path = mapdelta::testing::TempFilePath("mapdelta_client_rt.pfm").string();
   DisparityImage d{3, 2, {1.5f, NAN, 3.f, 4.f, 0.25f, 6.f}};
   WriteDisparity(path, d);
   const DisparityImage back = ReadDisparityPfm(path);

@@ -50,5 +50,8 @@ struct PipelineResult {
 
 // Throws Error for unreadable inputs; rejected registrations are logged, not thrown.
 PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& inputs);
+// The camera of the keyframes RunPipeline writes and uploads: the rectified left camera without
+// the stereo matcher's unmatched left band (StereoDepth::UnmatchedBandFor, CropLeftBand).
+PinholeCamera KeyframeCamera(const ClientConfig& config, const PinholeCamera& left);
 
 }  // namespace mapdelta::client

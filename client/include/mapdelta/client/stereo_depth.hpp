@@ -21,6 +21,9 @@ class StereoDepth {
   // Disparity search range actually used for an image of this width: num_disparities scaled
   // by width / reference_width, rounded up to a multiple of 16 (SGBM's requirement).
   int NumDisparitiesFor(int width) const;
+  // Width of the left band SGBM cannot match by construction (u < min_disparity +
+  // NumDisparitiesFor(width): the right image holds no candidate), clamped to [0, width - 1].
+  int UnmatchedBandFor(int width) const;
   // Throws Error(kInvalidArgument) if the images are empty or differ in size.
   DisparityImage ComputeDisparity(const GrayImage& left, const GrayImage& right) const;
   // depth = fx * baseline / d; 0 where invalid or beyond max_depth_m.
@@ -33,5 +36,12 @@ class StereoDepth {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// Keyframe output without the unmatched left band: its pixels are "unknown", not "no surface",
+// and in the keyframe folder / upload they would cast the observed area's th_f free rays
+// through whatever lies there. Drops the first `band` columns; cx moves by -band so every kept
+// pixel keeps its ray. Throws Error(kInvalidArgument) if band is outside [0, width).
+PinholeCamera CropLeftBand(const PinholeCamera& camera, int band);
+DepthImage CropLeftBand(const DepthImage& depth, int band);
 
 }  // namespace mapdelta::client
