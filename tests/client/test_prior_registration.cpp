@@ -11,6 +11,7 @@
 #include "mapdelta/client/prior_registration.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
+#include "support/temp_dir.hpp"
 
 namespace mapdelta::client {
 namespace {
@@ -75,7 +76,7 @@ class PriorRegistrationTest : public ::testing::Test {
  protected:
   void SetUp() override {
     scene_ = Scene();
-    path_ = (std::filesystem::temp_directory_path() / "mapdelta_client_prior.pcd").string();
+    path_ = mapdelta::testing::TempFilePath("mapdelta_client_prior.pcd").string();
     WriteCloud(path_, scene_);
   }
   PointCloud scene_;

@@ -18,6 +18,7 @@
 #include "mapdelta/common/error.hpp"
 
 #include <httplib.h>
+#include "support/temp_dir.hpp"
 
 namespace mapdelta::client {
 namespace {
@@ -128,7 +129,7 @@ Keyframe MakeKeyframe(int i) {
 }
 
 std::string QueueDir(const std::string& name) {
-  const auto dir = fs::temp_directory_path() / ("mapdelta_client_" + name);
+  const auto dir = mapdelta::testing::FreshTempDir("mapdelta_client_" + name);
   fs::remove_all(dir);
   return dir.string();
 }

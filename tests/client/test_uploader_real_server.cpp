@@ -21,6 +21,7 @@
 
 #include "mapdelta/client/http_transport.hpp"
 #include "mapdelta/client/uploader.hpp"
+#include "support/temp_dir.hpp"
 
 namespace mapdelta::client {
 namespace {
@@ -96,7 +97,7 @@ Keyframe MakeKeyframe(int i) {
 }
 
 TEST(UploaderRealServer, ServerCrashAndClientRestartLoseAndDuplicateNothing) {
-  const fs::path dir = fs::temp_directory_path() / "mapdelta_client_real_server";
+  const fs::path dir = mapdelta::testing::FreshTempDir("mapdelta_client_real_server");
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string config = (dir / "server.yaml").string();

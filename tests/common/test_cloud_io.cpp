@@ -12,12 +12,13 @@
 
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
+#include "support/temp_dir.hpp"
 
 namespace mapdelta {
 namespace {
 
 std::string TempDir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("mapdelta_test_" + name);
+  const auto dir = mapdelta::testing::FreshTempDir("mapdelta_test_" + name);
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir.string();

@@ -13,12 +13,13 @@
 #include "mapdelta/common/tiling.hpp"
 #include "mapdelta/common/trajectory_io.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
+#include "support/temp_dir.hpp"
 
 namespace mapdelta {
 namespace {
 
 std::string TempDir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("mapdelta_test_" + name);
+  const auto dir = mapdelta::testing::FreshTempDir("mapdelta_test_" + name);
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir.string();

@@ -14,13 +14,14 @@
 #include "mapdelta/sim/dataset_writer.hpp"
 #include "mapdelta/sim/generator.hpp"
 #include "mapdelta/sim/raycaster.hpp"
+#include "support/temp_dir.hpp"
 
 namespace mapdelta::sim {
 namespace {
 namespace fs = std::filesystem;
 
 std::string TempDir(const std::string& name) {
-  const auto dir = fs::temp_directory_path() / ("mapdelta_test_sim_" + name);
+  const auto dir = mapdelta::testing::FreshTempDir("mapdelta_test_sim_" + name);
   fs::remove_all(dir);
   return dir.string();
 }

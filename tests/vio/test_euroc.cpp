@@ -7,6 +7,7 @@
 
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
+#include "support/temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace mapdelta;
@@ -59,7 +60,7 @@ void Write(const fs::path& p, const std::string& text) {
 }
 
 fs::path MakeFolder(const std::string& name) {
-  const fs::path root = fs::temp_directory_path() / ("mapdelta_euroc_" + name);
+  const fs::path root = mapdelta::testing::FreshTempDir("mapdelta_euroc_" + name);
   fs::remove_all(root);
   const fs::path mav0 = root / "mav0";
   Write(mav0 / "cam0/sensor.yaml", kCam0Yaml);

@@ -11,6 +11,7 @@
 #include "mapdelta/sim/config.hpp"
 #include "mapdelta/sim/generator.hpp"
 #include "mapdelta/vio/run_sequence.hpp"
+#include "support/temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace mapdelta;
@@ -18,7 +19,7 @@ using namespace mapdelta;
 namespace {
 
 std::string Generate(const std::string& name, sim::SimConfig c) {
-  const fs::path dir = fs::temp_directory_path() / ("mapdelta_vio_" + name);
+  const fs::path dir = mapdelta::testing::FreshTempDir("mapdelta_vio_" + name);
   fs::remove_all(dir);
   sim::GenerateDataset(c, dir.string(), nullptr);
   return (dir / "sequences" / c.sequences.front()).string();
