@@ -173,7 +173,7 @@ for seq in "${seq_list[@]}"; do
   "$eval_tool" ate "$gt" "$client_out/vio.txt" --json "$client_out/ate_vio.json" >/dev/null
   "$eval_tool" ate "$gt" "$client_out/fused.txt" --json "$client_out/ate_fused.json" >/dev/null
   "$detect" --prior "$original_cloud" --keyframes "$client_out/keyframes" \
-    --out "$client_out/detect" >/dev/null
+    --out "$client_out/detect" --free-ray-bound 128 >/dev/null
   "$eval_tool" changes --original "$original_cloud" --changed "$dataset/scenes/$scene/cloud.pcd" \
     --new "$client_out/detect/new.pcd" --removed "$client_out/detect/removed.pcd" \
     --global "$client_out/detect/global.pcd" --observed "$client_out/detect/observed.bt" \
