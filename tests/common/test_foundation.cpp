@@ -19,10 +19,7 @@ namespace mapdelta {
 namespace {
 
 std::string TempDir(const std::string& name) {
-  const auto dir = mapdelta::testing::FreshTempDir("mapdelta_test_" + name);
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir.string();
+  return mapdelta::testing::FreshTempDir("mapdelta_test_" + name).string();
 }
 
 TEST(Tiling, KeysAtNegativeCoordinatesAndBorders) {
