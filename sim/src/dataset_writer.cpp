@@ -74,14 +74,18 @@ SE3 BodyToCam0() {
 }
 
 void WriteCameraYaml(const std::string& path, const PinholeCamera& cam, double rate_hz, const SE3& T_body_cam,
-                     const std::string& comment) {
+                     const std::string& comment, const std::array<double, 4>& radtan) {
+  std::string coeffs = "[0.0, 0.0, 0.0, 0.0]";
+  if (radtan != std::array<double, 4>{0, 0, 0, 0}) {
+    coeffs = "[" + Num(radtan[0]) + ", " + Num(radtan[1]) + ", " + Num(radtan[2]) + ", " + Num(radtan[3]) + "]";
+  }
   std::ofstream out = Open(path);
   out << "# General sensor definitions.\nsensor_type: camera\ncomment: " << comment << "\n\n"
       << "# Sensor extrinsics wrt. the body-frame.\n"
       << MatrixYaml(T_body_cam) << "\n# Camera specific definitions.\nrate_hz: " << Num(rate_hz)
       << "\nresolution: [" << cam.width << ", " << cam.height << "]\ncamera_model: pinhole\nintrinsics: ["
       << Num(cam.fx) << ", " << Num(cam.fy) << ", " << Num(cam.cx) << ", " << Num(cam.cy)
-      << "] #fu, fv, cu, cv\ndistortion_model: radial-tangential\ndistortion_coefficients: [0.0, 0.0, 0.0, 0.0]\n";
+      << "] #fu, fv, cu, cv\ndistortion_model: radial-tangential\ndistortion_coefficients: " << coeffs << "\n";
   Close(out, path);
 }
 
@@ -119,7 +123,7 @@ void WriteImuCsv(const std::string& path, const std::vector<ImuSample>& imu) {
 }
 
 void WriteGroundTruthCsv(const std::string& path, const SplineTrajectory& traj, const std::vector<ImuSample>& imu,
-                         int64_t t0_ns) {
+                         int64_t t0_ns, const SE3& T_vehicle_body) {
   std::ofstream out = Open(path);
   out << "#timestamp,p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z [],"
          "v_RS_R_x [m s^-1],v_RS_R_y [m s^-1],v_RS_R_z [m s^-1],b_w_RS_S_x [rad s^-1],b_w_RS_S_y [rad s^-1],"
@@ -127,7 +131,7 @@ void WriteGroundTruthCsv(const std::string& path, const SplineTrajectory& traj, 
   Eigen::Quaterniond prev = Eigen::Quaterniond::Identity();
   for (const ImuSample& s : imu) {
     const MotionState m = traj.Evaluate(static_cast<double>(s.t_ns - t0_ns) * 1e-9);
-    Eigen::Quaterniond q(m.T_map_body.linear());
+    Eigen::Quaterniond q(Eigen::Matrix3d(m.T_map_body.linear() * T_vehicle_body.linear()));
     if (q.coeffs().dot(prev.coeffs()) < 0) q.coeffs() *= -1.0;  // no sign flips between rows
     prev = q;
     out << s.t_ns;

@@ -21,6 +21,7 @@
 #include "mapdelta/sim/random.hpp"
 #include "mapdelta/sim/raycaster.hpp"
 #include "mapdelta/sim/renderer.hpp"
+#include "mapdelta/sim/sensor_rig.hpp"
 
 namespace mapdelta::sim {
 namespace fs = std::filesystem;
@@ -164,22 +165,23 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
   for (const char* d : {"cam0/data", "cam1/data", "imu0", "state_groundtruth_estimate0"}) MakeDirs(mav / d);
   if (c.write_depth) MakeDirs(mav / "depth0" / "data");
 
-  PinholeCamera cam;
-  cam.width = c.width;
-  cam.height = c.height;
-  cam.fx = c.fx;
-  cam.fy = c.fy;
-  cam.cx = c.cx;
-  cam.cy = c.cy;
-  const SE3 T_body_cam0 = BodyToCam0();
-  SE3 T_cam0_cam1 = SE3::Identity();
-  T_cam0_cam1.translation() = Eigen::Vector3d(c.baseline, 0, 0);
-  const SE3 T_body_cam1 = T_body_cam0 * T_cam0_cam1;
-  WriteCameraYaml((mav / "cam0/sensor.yaml").string(), cam, c.cam_rate_hz, T_body_cam0, "mapdelta-sim left camera");
-  WriteCameraYaml((mav / "cam1/sensor.yaml").string(), cam, c.cam_rate_hz, T_body_cam1, "mapdelta-sim right camera");
+  const SensorRig rig = MakeSensorRig(c);
+  const SimCamera& cam0 = rig.cam[0];
+  auto radtan = [](const SimCamera& sc) {
+    return std::array<double, 4>{sc.distortion.k1, sc.distortion.k2, sc.distortion.p1, sc.distortion.p2};
+  };
+  WriteCameraYaml((mav / "cam0/sensor.yaml").string(), cam0.K, c.cam_rate_hz, cam0.T_body_cam,
+                  "mapdelta-sim left camera", radtan(cam0));
+  WriteCameraYaml((mav / "cam1/sensor.yaml").string(), rig.cam[1].K, c.cam_rate_hz, rig.cam[1].T_body_cam,
+                  "mapdelta-sim right camera", radtan(rig.cam[1]));
   if (c.write_depth) {
-    WriteCameraYaml((mav / "depth0/sensor.yaml").string(), cam, c.cam_rate_hz, T_body_cam0,
-                    "mapdelta-sim ground-truth depth of cam0 (16-bit PNG, millimetres, 0 = none)");
+    WriteCameraYaml((mav / "depth0/sensor.yaml").string(), cam0.K, c.cam_rate_hz, cam0.T_body_cam,
+                    "mapdelta-sim ground-truth depth of cam0 (16-bit PNG, millimetres, 0 = none)", radtan(cam0));
+  }
+  // Distorted lenses: every pixel's ray once per sequence (undistortion is iterative).
+  std::vector<Eigen::Vector3f> rays[2];
+  for (int ci = 0; ci < 2; ++ci) {
+    if (!rig.cam[ci].distortion.IsZero()) rays[ci] = PixelRays(rig.cam[ci]);
   }
 
   // Images.
@@ -191,20 +193,21 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
   const RenderOptions ropt{c.shadows, 3};
   ParallelFor(frames, ThreadCount(c), name + " images", progress, [&](size_t k) {
     const double t = static_cast<double>(stamps[k] - kT0Ns) * 1e-9;
-    const SE3 T_map_body = plan.trajectory.Evaluate(t).T_map_body;
-    const SE3 poses[2] = {T_map_body * T_body_cam0, T_map_body * T_body_cam1};
+    const SE3 T_map_body = plan.trajectory.Evaluate(t).T_map_body * rig.T_vehicle_body;
+    const SE3 poses[2] = {T_map_body * rig.cam[0].T_body_cam, T_map_body * rig.cam[1].T_body_cam};
     // Per-thread buffers: the content depends only on k, never on what the thread did before.
     thread_local RenderedView view;
     thread_local std::vector<uint8_t> grey;
     thread_local DepthImage depth;
     for (int ci = 0; ci < 2; ++ci) {
-      RenderViewInto(scene, caster, cam, poses[ci], ropt, &view);
+      const PinholeCamera& K = rig.cam[ci].K;
+      RenderViewInto(scene, caster, K, poses[ci], ropt, &view, rays[ci].empty() ? nullptr : &rays[ci]);
       const std::string file = std::to_string(stamps[k]) + ".png";
       ToGrey8Into(view, noise.image_sigma, HashCombine(seq_key, 2 * k + static_cast<size_t>(ci)), &grey);
-      WriteGreyPng((mav / (ci == 0 ? "cam0/data" : "cam1/data") / file).string(), cam.width, cam.height, grey);
+      WriteGreyPng((mav / (ci == 0 ? "cam0/data" : "cam1/data") / file).string(), K.width, K.height, grey);
       if (ci == 0 && c.write_depth) {
-        depth.width = cam.width;
-        depth.height = cam.height;
+        depth.width = K.width;
+        depth.height = K.height;
         depth.depth_m = view.depth;
         WriteDepthPng((mav / "depth0/data" / file).string(), depth);
       }
@@ -216,23 +219,40 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
 
   // IMU and ground truth over the same time span as the images.
   const double span = static_cast<double>(stamps.back() - kT0Ns) * 1e-9;
-  const auto imu = SimulateImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span, noise, seq_key);
+  auto imu = SimulateImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span, noise, seq_key);
+  // In the body (IMU) axes. The noise was drawn in the vehicle axes: white noise and bias walk
+  // are isotropic, so the rotated noise has the same densities.
+  if (!rig.T_vehicle_body.linear().isIdentity(0.0)) {
+    const Eigen::Matrix3d R_body_vehicle = rig.T_vehicle_body.linear().transpose();
+    for (ImuSample& s : imu) {
+      s.gyro = R_body_vehicle * s.gyro;
+      s.accel = R_body_vehicle * s.accel;
+      s.bias_gyro = R_body_vehicle * s.bias_gyro;
+      s.bias_accel = R_body_vehicle * s.bias_accel;
+    }
+  }
   WriteImuYaml((mav / "imu0/sensor.yaml").string(), c.imu_rate_hz, noise);
   WriteImuCsv((mav / "imu0/data.csv").string(), imu);
-  WriteGroundTruthCsv((mav / "state_groundtruth_estimate0/data.csv").string(), plan.trajectory, imu, kT0Ns);
+  WriteGroundTruthCsv((mav / "state_groundtruth_estimate0/data.csv").string(), plan.trajectory, imu, kT0Ns,
+                      rig.T_vehicle_body);
 
   double max_rate = 0;
-  for (const ImuSample& s : imu) max_rate = std::max(max_rate, std::abs(s.gyro.z() - s.bias_gyro.z()));
+  for (const ImuSample& s : imu) {
+    max_rate = std::max(max_rate, std::abs((rig.T_vehicle_body.linear() * (s.gyro - s.bias_gyro)).z()));
+  }
   nlohmann::json changes = nlohmann::json::array();
   for (const Change& ch : plan.scene->changes) changes.push_back({{"type", ch.type}, {"id", ch.object.id}});
-  const nlohmann::json info = {
+  nlohmann::json info = {
       {"sequence", name}, {"scene", plan.scene->scene.name}, {"variant", plan.variant},
       {"noise", ToString(c.noise)}, {"seed", c.seed}, {"preset", c.preset},
       {"height_m", plan.height}, {"length_m", plan.length_m}, {"duration_s", span},
       {"t0_ns", kT0Ns}, {"cam_rate_hz", c.cam_rate_hz}, {"imu_rate_hz", c.imu_rate_hz},
-      {"frames", frames}, {"baseline_m", c.baseline}, {"image_noise_sigma", noise.image_sigma},
+      {"frames", frames},
+      {"baseline_m", rig.name == "ideal" ? c.baseline
+                                         : (rig.cam[0].T_body_cam.inverse() * rig.cam[1].T_body_cam).translation().norm()}, {"image_noise_sigma", noise.image_sigma},
       {"max_yaw_rate_rad_s", max_rate}, {"changes", changes}, {"mirrors", mirrors},
       {"ground_truth_cloud", "scenes/" + plan.scene->scene.name + "/cloud.pcd"}};
+  if (rig.name != "ideal") info["rig"] = rig.name;  // absent: the ideal rig (older datasets)
   std::ofstream out(fs::path(out_dir) / "sequences" / name / "info.json");
   out << info.dump(1) << '\n';
   if (!out) throw Error(ErrorCode::kIo, (fs::path(out_dir) / "sequences" / name / "info.json").string() + ": write failed");

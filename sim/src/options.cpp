@@ -63,7 +63,7 @@ const std::vector<Option>& Options() {
                c.seed = static_cast<uint64_t>(v);
                return true;
              }},
-      Option{"noise", "sensor noise preset: none | small | big (paper table)",
+      Option{"noise", "sensor noise preset: none | small | big (paper table) | euroc (EuRoC IMU)",
              [](const SimConfig& c) { return std::string(ToString(c.noise)); },
              [](SimConfig& c, const std::string& s) { return ParseNoiseLevel(s, &c.noise); }},
       Option{"sequences", "comma-separated: S1_01,S1_02,S2_01,S2_02,S1_mirror,S1_dark",
@@ -79,6 +79,12 @@ const std::vector<Option>& Options() {
                  if (!item.empty()) c.sequences.push_back(item);
                }
                return !c.sequences.empty();
+             }},
+      Option{"rig", "sensors: ideal (the camera options below) | euroc (EuRoC MH_01 cameras, lens, IMU axes)",
+             [](const SimConfig& c) { return c.rig; },
+             [](SimConfig& c, const std::string& s) {
+               c.rig = s;
+               return s == "ideal" || s == "euroc";
              }},
       MD_INT(threads, "worker threads for rendering (0 = all cores)"),
       MD_DOUBLE(extent_x, "scene size along x [m]"),
@@ -166,9 +172,10 @@ std::string HelpText(const std::string& preset) {
   const SimConfig paper = PresetConfig("paper");
   std::ostringstream o;
   o << "mapdelta-sim: generate the change-detection dataset (scenes original/S1/S2, stereo+IMU sequences)\n\n"
-       "usage: mapdelta-sim --preset tiny|paper --out DIR [--seed N] [--noise none|small|big] [--<option> VALUE]...\n\n"
+       "usage: mapdelta-sim --preset tiny|paper|euroc --out DIR [--seed N] [--noise none|small|big|euroc] [--<option> VALUE]...\n\n"
        "  --preset NAME       tiny (small scene, 400x225, ~25 s, for tests and the demo) or paper\n"
-       "                      (250x250x40 m, 800x450, 30 Hz, ~700 m / 170 s, all six sequences)\n"
+       "                      (250x250x40 m, 800x450, 30 Hz, ~700 m / 170 s, all six sequences) or euroc\n"
+       "                      (EuRoC MH_01 sensors: 752x480 distorted stereo, 20 Hz, 200 Hz IMU; 12 s, S1_01)\n"
        "  --out DIR           output folder (layout: docs/conventions.md)\n"
        "  --log-level LEVEL   debug | info | warn | error | off (default info)\n"
        "  --quiet             no progress bar\n"

@@ -86,7 +86,7 @@ RenderedView RenderView(const Scene& s, const RayCaster& caster, const PinholeCa
 }
 
 void RenderViewInto(const Scene& s, const RayCaster& caster, const PinholeCamera& cam, const SE3& T_map_cam,
-                    const RenderOptions& opt, RenderedView* out_view) {
+                    const RenderOptions& opt, RenderedView* out_view, const std::vector<Eigen::Vector3f>* rays) {
   RenderedView& out = *out_view;
   out.width = cam.width;
   out.height = cam.height;
@@ -98,11 +98,18 @@ void RenderViewInto(const Scene& s, const RayCaster& caster, const PinholeCamera
   static const Gamma gamma;
   for (int v = 0; v < cam.height; ++v) {
     for (int u = 0; u < cam.width; ++u) {
+      const size_t i = static_cast<size_t>(v) * cam.width + u;
       // Unnormalized direction with z = 1 in the camera: the hit's ray parameter is its depth.
-      const Eigen::Vector3f dc(static_cast<float>((u - cam.cx) / cam.fx), static_cast<float>((v - cam.cy) / cam.fy), 1.f);
+      const Eigen::Vector3f dc = rays ? (*rays)[i]
+                                      : Eigen::Vector3f(static_cast<float>((u - cam.cx) / cam.fx),
+                                                        static_cast<float>((v - cam.cy) / cam.fy), 1.f);
+      if (dc.z() == 0.f) {  // outside the lens model's valid field
+        out.intensity[i] = 0.f;
+        out.depth[i] = 0.f;
+        continue;
+      }
       float t = 0.f;
       const float radiance = Trace(s, caster, opt, static_cast<float>(cam.fx), o, R * dc, &t);
-      const size_t i = static_cast<size_t>(v) * cam.width + u;
       // Display response: a gamma curve, so shadows keep texture.
       out.intensity[i] = gamma(exposure * radiance);
       out.depth[i] = t;

@@ -7,7 +7,8 @@
 
 namespace mapdelta::sim {
 
-enum class NoiseLevel { kNone, kSmall, kBig };
+// kEuroc: EuRoC MH_01's imu0/sensor.yaml densities (ADIS16448) with the small image noise.
+enum class NoiseLevel { kNone, kSmall, kBig, kEuroc };
 
 // Paper table (DESIGN.md): continuous-time densities and image sigma (fraction of full scale).
 struct NoiseParams {
@@ -37,7 +38,10 @@ struct SimConfig {
   int small_objects = 20;         // cars, trees, lamps, kiosks
   double cloud_leaf = 0.2;        // GT cloud voxel size after dense sampling
 
-  // Cameras: rectified stereo, cam1 at +baseline along cam0's x.
+  // Sensor rig (sensor_rig.hpp): "ideal" = the camera fields below; "euroc" = EuRoC MH_01's
+  // distorted, slightly non-parallel cameras and IMU axes (the camera fields are then unused).
+  std::string rig = "ideal";
+  // Cameras of the ideal rig: rectified stereo, cam1 at +baseline along cam0's x.
   int width = 400;
   int height = 225;
   double fx = 200.0, fy = 200.0, cx = 200.0, cy = 112.5;
@@ -57,7 +61,8 @@ struct SimConfig {
   std::vector<std::string> sequences = {"S1_01", "S2_01"};
 };
 
-// Returns the preset's config; throws Error(kInvalidArgument) for an unknown name.
+// Presets: tiny, paper, euroc (tiny's city shrunk to 3x3 blocks, EuRoC rig, 200 Hz IMU with
+// EuRoC noise, 12 s / 36 m). Returns the preset's config; throws Error(kInvalidArgument) for an unknown name.
 SimConfig PresetConfig(const std::string& name);
 // Throws Error(kInvalidArgument) naming every bad field at once.
 void Validate(const SimConfig& config);

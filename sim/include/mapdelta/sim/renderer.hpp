@@ -26,9 +26,12 @@ struct RenderedView {
 // Renders the view of a camera at T_map_cam (x right, y down, z forward).
 RenderedView RenderView(const Scene& scene, const RayCaster& caster, const PinholeCamera& camera,
                         const SE3& T_map_cam, const RenderOptions& options);
-// Same, reusing out's buffers (large per-frame allocations cost page faults).
+// Same, reusing out's buffers (large per-frame allocations cost page faults). `rays`, if given,
+// holds every pixel's ray direction in the camera (z = 1; see PixelRays in sensor_rig.hpp), for
+// distorted lenses; an all-zero ray renders black with depth 0.
 void RenderViewInto(const Scene& scene, const RayCaster& caster, const PinholeCamera& camera,
-                    const SE3& T_map_cam, const RenderOptions& options, RenderedView* out);
+                    const SE3& T_map_cam, const RenderOptions& options, RenderedView* out,
+                    const std::vector<Eigen::Vector3f>* rays = nullptr);
 
 // 8-bit grey image: intensity plus gaussian noise of `sigma` (fraction of full scale). The noise
 // of pixel i is a hash of (noise_key, i): independent of thread scheduling.
