@@ -78,7 +78,7 @@ NavState SlidingWindowEstimator::StateOf(const Frame& f) const {
   return s;
 }
 
-void SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
+NavState SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
   window_.clear();
   landmarks_.clear();
   prior_.reset();
@@ -105,9 +105,15 @@ void SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
   prior_->AddResidualBlock(new ceres::AutoDiffCostFunction<StatePrior, 10, 7, 9>(prior), nullptr,
                            {first.pose, first.sb});
   prior_->Marginalize();
-  Optimize();
+  // The linear alignment's gravity is a few degrees off (frame-to-frame PnP positions are
+  // noisy over a short chain); a converged joint solve fixes the tilt before the first
+  // output instead of letting it leak out over the next seconds.
+  Optimize(config_.init_solver_iterations, 10 * config_.solver_max_time_s);
   RemoveOutliers();
+  Optimize(config_.init_solver_iterations, 10 * config_.solver_max_time_s);
+  const NavState newest = StateOf(*window_.back());
   while (static_cast<int>(window_.size()) > config_.window_keyframes) MarginalizeOldest();
+  return newest;
 }
 
 void SlidingWindowEstimator::AddObservations(const FrameFeatures& features) {
@@ -233,7 +239,7 @@ EstimatorOutput SlidingWindowEstimator::AddFrame(const FrameFeatures& features,
 
   // 3. Optimize and clean up.
   const auto t_opt = std::chrono::steady_clock::now();
-  Optimize();
+  Optimize(config_.solver_iterations, config_.solver_max_time_s);
   RemoveOutliers();
   out.optimize_ms = MsSince(t_opt);
 

@@ -47,7 +47,7 @@ void SlidingWindowEstimator::AllFactors(FactorList* out) {
   for (auto& [id, lm] : landmarks_) LandmarkFactors(&lm, out);
 }
 
-void SlidingWindowEstimator::Optimize() {
+void SlidingWindowEstimator::Optimize(int iterations, double max_time_s) {
   ceres::Problem::Options options;
   options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -71,8 +71,8 @@ void SlidingWindowEstimator::Optimize() {
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_SCHUR;
   solver.trust_region_strategy_type = ceres::DOGLEG;
-  solver.max_num_iterations = config_.solver_iterations;
-  solver.max_solver_time_in_seconds = config_.solver_max_time_s;
+  solver.max_num_iterations = iterations;
+  solver.max_solver_time_in_seconds = max_time_s;
   solver.num_threads = config_.solver_threads;
   solver.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;

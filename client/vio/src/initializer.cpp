@@ -29,7 +29,10 @@ std::optional<std::vector<InitFrame>> Initializer::AddFrame(const FrameFeatures&
     }
   }
   frames_.push_back(std::move(frame));
-  if (static_cast<int>(frames_.size()) < config_.init_frames) return std::nullopt;
+  const double span_s = 1e-9 * static_cast<double>(features.t_ns - frames_.front().features.t_ns);
+  if (static_cast<int>(frames_.size()) < config_.init_frames || span_s < config_.init_min_span_s) {
+    return std::nullopt;
+  }
   std::vector<InitFrame> out(frames_.begin(), frames_.end());
   if (!Align(&out)) {
     frames_.pop_front();  // slide: try again with the next frame
@@ -143,6 +146,10 @@ bool Initializer::Align(std::vector<InitFrame>* frames_ptr) const {
     frames[k].state.bg = bg;
     frames[k].state.ba.setZero();
   }
+  MD_LOG(kDebug, "vio init: chain displacement "
+                     << (frames.back().state.T_world_body.translation() -
+                         frames.front().state.T_world_body.translation()).norm()
+                     << " m, first speed " << frames.front().state.v_world.norm());
   MD_LOG(kInfo, "vio initialized at t_ns=" << frames.back().features.t_ns << ": |g|="
                                            << g.norm() << " bg=" << bg.transpose()
                                            << " speed=" << frames.back().state.v_world.norm());

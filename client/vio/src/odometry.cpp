@@ -171,12 +171,12 @@ FrameEstimate StereoInertialOdometry::AddStereoFrame(int64_t t_ns, const GrayIma
     auto init = m.initializer.AddFrame(features, pre);
     if (init) {
       m.estimator = std::make_unique<SlidingWindowEstimator>(m.config, m.ext);
-      const NavState last = init->back().state;
-      m.estimator->Start(std::move(*init));
+      const NavState last = m.estimator->Start(std::move(*init));
       e.initialized = true;
       e.T_world_body = last.T_world_body * m.T_body_imu.inverse();
       e.v_world = last.v_world;
       e.gyro_bias = last.bg;
+      e.accel_bias = last.ba;
     }
     e.times.initialization_ms = MsSince(t_init);
   } else {

@@ -38,7 +38,10 @@ SequenceRunResult RunSequence(const EurocSequence& sequence, const VioConfig& co
     const cv::Mat right = ReadGray(frame.right_path);
     const FrameEstimate e = vio.AddStereoFrame(frame.t_ns, View(left), View(right));
     ++result.processed;
-    if (e.reset) ++result.resets;
+    if (e.reset) {
+      ++result.resets;
+      result.reset_t_ns.push_back(e.t_ns);
+    }
     if (e.initialized) {
       ++result.initialized;
       result.frames.push_back({e.t_ns, e.T_world_body});

@@ -46,7 +46,9 @@ class SlidingWindowEstimator {
  public:
   SlidingWindowEstimator(const VioConfig& config, const StereoExtrinsics& extrinsics);
   ~SlidingWindowEstimator();
-  void Start(std::vector<InitFrame> frames);
+  // Starts the window from an initialization; returns the newest frame's state after a first
+  // joint visual-inertial solve (the linear alignment alone leaves degrees of tilt error).
+  NavState Start(std::vector<InitFrame> frames);
   EstimatorOutput AddFrame(const FrameFeatures& features, const ImuPreintegration& pre);
   // Keyframes that left the window (final estimates), oldest first; clears the list.
   std::vector<FinalizedKeyframe> TakeFinalized();
@@ -74,7 +76,7 @@ class SlidingWindowEstimator {
   void RemoveFrameObservations(int64_t t_ns);
   void Triangulate(Landmark* lm) const;
   bool IsKeyframe(const FrameFeatures& features) const;
-  void Optimize();
+  void Optimize(int iterations, double max_time_s);
   using FactorList = std::vector<std::pair<ceres::CostFunction*, std::vector<double*>>>;
   // Visual factors of a landmark (empty if it constrains no pose); caller owns them.
   void LandmarkFactors(Landmark* lm, FactorList* out) const;

@@ -2,7 +2,8 @@
 // Stereo + IMU initialization without assuming rest.
 //   1. chain frame-to-frame motion from stereo: triangulate the previous frame's stereo
 //      features (metric, the baseline fixes the scale), PnP-RANSAC them in the new frame;
-//   2. once `init_frames` frames are chained: gyro bias from visual vs preintegrated rotation;
+//   2. once `init_frames` frames spanning `init_min_span_s` are chained: gyro bias from
+//      visual vs preintegrated rotation;
 //   3. velocities and gravity (in the first body frame) by linear least squares over the
 //      preintegrated velocity and position deltas; accept if |g| is plausible;
 //   4. rotate everything so that gravity points along -z (yaw of the first frame kept).

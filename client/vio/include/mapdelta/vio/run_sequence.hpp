@@ -23,6 +23,7 @@ struct SequenceRunResult {
   std::vector<std::optional<Eigen::Matrix<double, 6, 6>>> keyframe_covariances;
   StageTimes times;      // summed over frames
   int processed = 0, initialized = 0, resets = 0;
+  std::vector<int64_t> reset_t_ns;  // frame times at which a failure reset the estimator
   double sequence_duration_s = 0;
 };
 

@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Seed sweep of the VIO on tiny simulated sequences: for every (seed, noise) generate the tiny
+# dataset (S1_01, S2_01; no depth), run mapdelta-vio on both sequences, record ATE, resets and
+# the ground truth's own attitude jumps (a reset there is the data's fault, not a divergence),
+# delete the data, and print a table of ATE mean/max per noise and sequence.
+#
+#   client/vio/tools/seed_sweep.sh [--seeds "1 2 3"] [--noises "small big"] [--work DIR]
+#                                  [--build DIR] [--keep]
+# Output: DIR/runs.tsv (one row per run) and the summary on stdout. Runs niced, one at a time
+# (~50 s CPU to generate a seed, ~20 s per VIO run).
+set -euo pipefail
+
+seeds="1 2 3 4 5 6 7 8 9 10"
+noises="small big"
+work=/work/data/vio-sweep
+build=build
+keep=0
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --seeds) seeds="$2"; shift 2 ;;
+    --noises) noises="$2"; shift 2 ;;
+    --work) work="$2"; shift 2 ;;
+    --build) build="$2"; shift 2 ;;
+    --keep) keep=1; shift ;;
+    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
+    *) echo "seed_sweep.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
+  esac
+done
+sim="$build/sim/mapdelta-sim"
+vio="$build/client/vio/mapdelta-vio"
+for bin in "$sim" "$vio"; do
+  [[ -x "$bin" ]] || { echo "seed_sweep.sh: $bin not built (use --build DIR)" >&2; exit 2; }
+done
+mkdir -p "$work"
+runs="$work/runs.tsv"
+printf "noise\tseed\tsequence\tate_rmse\tate_max\tworst_segment_rmse\tresets\tgt_attitude_jumps\tvio_cpu_s\n" > "$runs"
+
+# Ground-truth attitude steps > ~5 deg between consecutive 200 Hz samples (physically impossible).
+gt_jumps() {
+  awk -F, 'NR > 2 { d = $5*w + $6*x + $7*y + $8*z; if (d < 0) d = -d; if (d < 0.999) n++ }
+           NR > 1 { w = $5; x = $6; y = $7; z = $8 } END { print n + 0 }' "$1"
+}
+
+for noise in $noises; do
+  for seed in $seeds; do
+    data="$work/tiny-$noise-s$seed"
+    echo "== seed $seed, noise $noise: generating" >&2
+    rm -rf "$data"
+    nice -n 10 "$sim" --preset tiny --out "$data" --seed "$seed" --noise "$noise" \
+      --write_depth false --quiet > "$data.log" 2>&1
+    for seq in S1_01 S2_01; do
+      dir="$data/sequences/$seq"
+      out=$(nice -n 10 "$vio" --sequence "$dir" --out "$work/$seq-$noise-s$seed.tum" 2>/dev/null)
+      ate=$(sed -n 's/^ATE (SE3-aligned.*rmse \([0-9.]*\) m .*max \([0-9.]*\)$/\1\t\2/p' <<< "$out")
+      worst=$(sed -n 's/^segment .*rmse \([0-9.]*\) m.*/\1/p' <<< "$out" | sort -g | tail -1)
+      resets=$(sed -n 's/.*resets \([0-9]*\)$/\1/p' <<< "$out")
+      cpu=$(sed -n 's/^process CPU time \([0-9.]*\) s.*/\1/p' <<< "$out")
+      jumps=$(gt_jumps "$dir/mav0/state_groundtruth_estimate0/data.csv")
+      printf "%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n" "$noise" "$seed" "$seq" "$ate" "$worst" \
+        "$resets" "$jumps" "$cpu" | tee -a "$runs" >&2
+    done
+    [[ $keep == 1 ]] || rm -rf "$data" "$data.log"
+  done
+done
+
+echo "ATE RMSE (SE3) over seeds: mean / max; resets (runs with a ground-truth attitude jump in brackets)"
+awk -F'\t' 'NR > 1 {
+    k = $1 " " $3; n[k]++; s[k] += $4; if ($4 > m[k]) m[k] = $4
+    if ($6 > ws[k]) ws[k] = $6; r[k] += $7; if ($8 > 0) j[k]++ }
+  END { printf "%-12s %5s %9s %9s %13s %7s %6s\n", "noise seq", "runs", "mean", "max", "worst segment", "resets", "jumps"
+        for (k in n) printf "%-12s %5d %9.3f %9.3f %13.3f %7d %6d\n", k, n[k], s[k] / n[k], m[k], ws[k], r[k], j[k] }' "$runs" | sort
