@@ -1,0 +1,49 @@
+#pragma once
+// Stereo rectification for cameras that are not already a rectified pinhole pair (real EuRoC:
+// radial-tangential lenses, the two cameras ~1 degree from parallel). The front end needs
+// rectified, undistorted images (row search for stereo matches), so the odometry rectifies
+// every incoming pair and runs on the rectified cameras below.
+// Internal header (OpenCV types): only the VIO's own sources and tests include it.
+#include <opencv2/core.hpp>
+
+#include <memory>
+
+#include "mapdelta/common/euroc.hpp"
+
+namespace mapdelta::vio {
+
+// True if the pair already is what the front end needs: no distortion, equal rotations, cam1
+// at +x of cam0 (the tolerances of the estimator's checks).
+bool IsRectifiedPair(const EurocCamera& cam0, const EurocCamera& cam1);
+
+class StereoRectifier {
+ public:
+  // OpenCV stereoRectify (zero disparity at infinity, alpha 0: every output pixel sees the
+  // scene, no black borders whose edges would attract corners) and float remap tables.
+  // Throws Error(kUnsupported) for a distortion model other than radial-tangential (4 or 5
+  // coefficients) or when cam1 is not beside cam0 (translation mostly along cam0's x).
+  StereoRectifier(const EurocCamera& cam0, const EurocCamera& cam1);
+
+  // Rectified cameras: input resolution, shared pinhole intrinsics (fx = fy), no distortion,
+  // T_body_cam = input T_body_cam * R_rect^T (optical centres unchanged), cam1 at +baseline
+  // along cam0's x with cam0's rotation.
+  const EurocCamera& cam0() const { return rect_[0]; }
+  const EurocCamera& cam1() const { return rect_[1]; }
+  double baseline_m() const { return baseline_m_; }
+
+  // Rectified image of camera `index` (0 left, 1 right): bilinear remap of `in` (8-bit grey,
+  // input resolution). Throws Error(kInvalidArgument) on a size mismatch.
+  void Rectify(int index, const cv::Mat& in, cv::Mat* out) const;
+  // Input pixel seen by rectified pixel (u, v) of camera `index` (bilinear in the tables).
+  cv::Point2d SourcePixel(int index, double u, double v) const;
+
+ private:
+  EurocCamera rect_[2];
+  double baseline_m_ = 0;
+  cv::Mat map_x_[2], map_y_[2];  // CV_32FC1: rectified pixel -> input pixel
+};
+
+// The rectifier the odometry needs for this pair, or nullptr if it is already rectified.
+std::unique_ptr<StereoRectifier> MakeRectifierIfNeeded(const EurocCamera& cam0, const EurocCamera& cam1);
+
+}  // namespace mapdelta::vio
