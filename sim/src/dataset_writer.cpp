@@ -23,11 +23,7 @@ void Close(std::ofstream& out, const std::string& path) {
   if (!out) throw Error(ErrorCode::kIo, path + ": write failed");
 }
 
-std::string Num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.10g", v);
-  return buf;
-}
+std::string Num(double v) { return FormatCsvNumber(v); }
 
 std::string MatrixYaml(const SE3& T) {
   std::string s = "T_BS:\n  cols: 4\n  rows: 4\n  data: [";
@@ -64,6 +60,12 @@ nlohmann::json ObjectJson(const Object& o) {
 }
 
 }  // namespace
+
+std::string FormatCsvNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.10g", v);
+  return buf;
+}
 
 SE3 BodyToCam0() {
   SE3 T = SE3::Identity();

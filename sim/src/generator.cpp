@@ -2,14 +2,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include <atomic>
-#include <chrono>
 #include <cmath>
-#include <exception>
 #include <filesystem>
 #include <fstream>
-#include <mutex>
-#include <thread>
 
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/depth_image.hpp"
@@ -18,6 +13,7 @@
 #include "mapdelta/sim/cloud_sampler.hpp"
 #include "mapdelta/sim/dataset_writer.hpp"
 #include "mapdelta/sim/imu.hpp"
+#include "mapdelta/sim/parallel.hpp"
 #include "mapdelta/sim/random.hpp"
 #include "mapdelta/sim/raycaster.hpp"
 #include "mapdelta/sim/renderer.hpp"
@@ -36,40 +32,7 @@ void MakeDirs(const fs::path& p) {
   if (ec) throw Error(ErrorCode::kIo, p.string() + ": cannot create directory: " + ec.message());
 }
 
-// Runs job(i) for i in [0, n) on `threads` workers, reporting progress from the calling thread.
-// Results must not depend on which worker runs which i.
-void ParallelFor(size_t n, int threads, const std::string& stage, const ProgressFn& progress,
-                 const std::function<void(size_t)>& job) {
-  std::atomic<size_t> next{0}, done{0};
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  auto worker = [&] {
-    for (size_t i; (i = next.fetch_add(1)) < n;) {
-      try {
-        job(i);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (!error) error = std::current_exception();
-        next = n;
-      }
-      done.fetch_add(1);
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
-  while (done.load() < n && !error) {
-    if (progress) progress(stage, done.load(), n);
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  for (auto& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
-  if (progress) progress(stage, n, n);
-}
-
-int ThreadCount(const SimConfig& c) {
-  if (c.threads > 0) return c.threads;
-  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-}
+int ThreadCount(const SimConfig& c) { return ResolveThreads(c.threads); }
 
 void WriteScene(const SimConfig& c, const Scene& scene, const Scene& original,
                 const std::vector<Change>& changes, const fs::path& dir) {
@@ -81,13 +44,6 @@ void WriteScene(const SimConfig& c, const Scene& scene, const Scene& original,
     const Scene& where = ch.type == "removed" ? original : scene;
     WriteCloud((dir / (ch.type + ".pcd")).string(), SampleObjectCloud(where, ch.object, c.cloud_leaf));
   }
-}
-
-// FNV-1a: a name hash that is the same with every standard library.
-uint64_t NameHash(const std::string& name) {
-  uint64_t h = 0xcbf29ce484222325ULL;
-  for (unsigned char ch : name) h = (h ^ ch) * 0x100000001b3ULL;
-  return h;
 }
 
 double PathLength(const SplineTrajectory& traj, double duration) {
@@ -102,6 +58,13 @@ double PathLength(const SplineTrajectory& traj, double duration) {
 }
 
 }  // namespace
+
+uint64_t SequenceNoiseKey(uint64_t seed, const std::string& name) {
+  // FNV-1a: a name hash that is the same with every standard library.
+  uint64_t h = 0xcbf29ce484222325ULL;
+  for (unsigned char ch : name) h = (h ^ ch) * 0x100000001b3ULL;
+  return HashCombine(seed, h);
+}
 
 Scenes BuildScenes(const SimConfig& c) {
   Validate(c);
@@ -189,7 +152,7 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
   if (max_frames > 0) frames = std::min(frames, max_frames);
   std::vector<int64_t> stamps(frames);
   for (size_t k = 0; k < frames; ++k) stamps[k] = SampleTimeNs(kT0Ns, static_cast<int64_t>(k), c.cam_rate_hz);
-  const uint64_t seq_key = HashCombine(c.seed, NameHash(name));
+  const uint64_t seq_key = SequenceNoiseKey(c.seed, name);
   const RenderOptions ropt{c.shadows, 3};
   ParallelFor(frames, ThreadCount(c), name + " images", progress, [&](size_t k) {
     const double t = static_cast<double>(stamps[k] - kT0Ns) * 1e-9;
@@ -244,7 +207,7 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
   for (const Change& ch : plan.scene->changes) changes.push_back({{"type", ch.type}, {"id", ch.object.id}});
   nlohmann::json info = {
       {"sequence", name}, {"scene", plan.scene->scene.name}, {"variant", plan.variant},
-      {"noise", ToString(c.noise)}, {"seed", c.seed}, {"preset", c.preset},
+      {"noise", ToString(c.noise)}, {"seed", c.seed}, {"noise_seed", c.seed}, {"preset", c.preset},
       {"height_m", plan.height}, {"length_m", plan.length_m}, {"duration_s", span},
       {"t0_ns", kT0Ns}, {"cam_rate_hz", c.cam_rate_hz}, {"imu_rate_hz", c.imu_rate_hz},
       {"frames", frames},

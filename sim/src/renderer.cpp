@@ -124,12 +124,27 @@ std::vector<uint8_t> ToGrey8(const RenderedView& view, double sigma, uint64_t no
 }
 
 void ToGrey8Into(const RenderedView& view, double sigma, uint64_t noise_key, std::vector<uint8_t>* out) {
+  // Quantize first, then add noise to the 8-bit value: the clean image is then a file
+  // (a --noise none dataset) from which `mapdelta-sim renoise` makes the same noisy image.
+  thread_local std::vector<uint8_t> clean;
+  clean.resize(view.intensity.size());
+  for (size_t i = 0; i < clean.size(); ++i) {
+    clean[i] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(static_cast<double>(view.intensity[i]), 0.0, 1.0)));
+  }
+  AddImageNoise(clean, sigma, noise_key, out);
+}
+
+void AddImageNoise(const std::vector<uint8_t>& clean, double sigma, uint64_t noise_key, std::vector<uint8_t>* out) {
   std::vector<uint8_t>& img = *out;
-  img.resize(view.intensity.size());
+  img.resize(clean.size());
+  if (sigma <= 0) {
+    std::copy(clean.begin(), clean.end(), img.begin());
+    return;
+  }
+  const double sigma_levels = 255.0 * sigma;
   for (size_t i = 0; i < img.size(); ++i) {
-    double value = view.intensity[i];
-    if (sigma > 0) value += sigma * HashGaussian(HashCombine(noise_key, i));
-    img[i] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(value, 0.0, 1.0)));
+    const double value = clean[i] + sigma_levels * HashGaussian(HashCombine(noise_key, i));
+    img[i] = static_cast<uint8_t>(std::lround(std::clamp(value, 0.0, 255.0)));
   }
 }
 

@@ -14,6 +14,9 @@
 
 namespace mapdelta::sim {
 
+// How every number in the CSV and YAML files is printed (10 significant digits).
+std::string FormatCsvNumber(double value);
+
 // Body (FLU) to camera (RDF) extrinsics of cam0; cam1 is at +baseline along cam0's x.
 SE3 BodyToCam0();
 

@@ -6,13 +6,12 @@
 #include <string>
 
 #include "mapdelta/sim/config.hpp"
+#include "mapdelta/sim/parallel.hpp"
 #include "mapdelta/sim/scene.hpp"
 #include "mapdelta/sim/trajectory.hpp"
 
 namespace mapdelta::sim {
 
-// Called from the generating thread: stage name, units done, units total.
-using ProgressFn = std::function<void(const std::string& stage, size_t done, size_t total)>;
 
 struct Scenes {
   Scene original;
@@ -37,6 +36,10 @@ Scene RenderScene(const SequencePlan& plan);
 // Throws Error on invalid config or I/O failure. Output is a function of config alone
 // (byte-identical for the same config, whatever the thread count).
 void GenerateDataset(const SimConfig& config, const std::string& out_dir, const ProgressFn& progress);
+// The key of a sequence's sensor noise (image noise of frame k, camera c: HashCombine(key,
+// 2k+c); IMU stream: AddImuNoise's seed). `seed` is the noise seed: the config's seed for
+// the generator, --seed for renoise.
+uint64_t SequenceNoiseKey(uint64_t seed, const std::string& sequence);
 // One sequence only (the scenes' files are not written); frames [0, max_frames) if max_frames > 0.
 void GenerateSequence(const SimConfig& config, const Scenes& scenes, const std::string& name,
                       const std::string& out_dir, const ProgressFn& progress, size_t max_frames = 0);
