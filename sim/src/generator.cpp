@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -182,17 +183,24 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
 
   // IMU and ground truth over the same time span as the images.
   const double span = static_cast<double>(stamps.back() - kT0Ns) * 1e-9;
-  auto imu = SimulateImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span, noise, seq_key);
-  // In the body (IMU) axes. The noise was drawn in the vehicle axes: white noise and bias walk
-  // are isotropic, so the rotated noise has the same densities.
-  if (!rig.T_vehicle_body.linear().isIdentity(0.0)) {
+  std::vector<ImuSample> imu;
+  if (rig.T_vehicle_body.linear().isIdentity(0.0)) {
+    imu = SimulateImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span, noise, seq_key);
+  } else {
+    // Clean samples turned into the body (IMU) axes and rounded as imu0/data.csv prints them,
+    // then the usual noise: `renoise` on a clean dataset of this rig gives the same samples.
     const Eigen::Matrix3d R_body_vehicle = rig.T_vehicle_body.linear().transpose();
-    for (ImuSample& s : imu) {
-      s.gyro = R_body_vehicle * s.gyro;
-      s.accel = R_body_vehicle * s.accel;
-      s.bias_gyro = R_body_vehicle * s.bias_gyro;
-      s.bias_accel = R_body_vehicle * s.bias_accel;
+    auto as_written = [](const Eigen::Vector3d& v) {
+      Eigen::Vector3d out;
+      for (int i = 0; i < 3; ++i) out[i] = std::strtod(FormatCsvNumber(v[i]).c_str(), nullptr);
+      return out;
+    };
+    std::vector<ImuSample> clean = SimulateCleanImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span);
+    for (ImuSample& s : clean) {
+      s.gyro = as_written(R_body_vehicle * s.gyro);
+      s.accel = as_written(R_body_vehicle * s.accel);
     }
+    imu = AddImuNoise(clean, c.imu_rate_hz, noise, seq_key);
   }
   WriteImuYaml((mav / "imu0/sensor.yaml").string(), c.imu_rate_hz, noise);
   WriteImuCsv((mav / "imu0/data.csv").string(), imu);
