@@ -1,0 +1,124 @@
+# Functions of tools/reproduce-paper.sh (sourced; uses its variables: bin_*, data, out, preset,
+# city_seed, nice_cmd, log). Every step skips work whose output is already complete, so an
+# interrupted reproduction resumes where it stopped.
+
+say() { printf '==> [%s %4ds] %s\n' "$(date -u +%H:%M:%S)" $(($(date +%s) - started)) "$*" >&2; }
+die() { echo "reproduce-paper: $*" >&2; exit 1; }
+
+# Seconds since the epoch with ms, for stage timings.
+now_s() { date +%s.%N | cut -c1-14; }
+elapsed() { awk -v a="$1" -v b="$(now_s)" 'BEGIN { printf "%.2f", b - a }'; }
+
+# ensure_dataset PRESET NOISE TRIAL SEQ -> prints the dataset root holding sequences/SEQ.
+# Trial k uses noise seed k on the clean render of city seed $city_seed; --dataset overrides.
+ensure_dataset() {
+  local p=$1 noise=$2 k=$3 seq=$4
+  local key="$noise:$k"
+  if [ -n "${dataset_override[$key]:-}" ]; then
+    [ -f "${dataset_override[$key]}/sequences/$seq/info.json" ] ||
+      die "--dataset $key=${dataset_override[$key]}: no sequences/$seq/info.json"
+    echo "${dataset_override[$key]}"
+    return
+  fi
+  local clean=$data/clean-$p-s$city_seed root=$data/$p-$noise-s$city_seed-n$k
+  # Pruned trials keep info.json but not their images: renoise again.
+  if [ ! -f "$root/sequences/$seq/info.json" ] || [ ! -d "$root/sequences/$seq/mav0/cam1/data" ]; then
+    if [ ! -f "$clean/sequences/$seq/info.json" ]; then
+      say "render $p/$seq once without noise (city seed $city_seed) -> $clean"
+      local t0; t0=$(now_s)
+      $nice_cmd "$bin_sim" --preset "$p" --out "$clean" --noise none --seed "$city_seed" \
+        --sequences "$seq" --quiet >>"$log" 2>&1 || die "mapdelta-sim failed (see $log)"
+      echo "{\"preset\":\"$p\",\"sequence\":\"$seq\",\"render_s\":$(elapsed "$t0")}" >>"$data/render_times.jsonl"
+    fi
+    say "renoise $p/$seq: noise $noise, seed $k -> $root"
+    local t0; t0=$(now_s)
+    $nice_cmd "$bin_sim" renoise --from "$clean" --out "$root" --noise "$noise" --seed "$k" \
+      --sequences "$seq" --quiet >>"$log" 2>&1 || die "mapdelta-sim renoise failed (see $log)"
+    echo "{\"preset\":\"$p\",\"sequence\":\"$seq\",\"noise\":\"$noise\",\"seed\":$k,\"renoise_s\":$(elapsed "$t0")}" >>"$data/render_times.jsonl"
+  fi
+  echo "$root"
+}
+
+# Drops a renoised sequence's images after use (they are re-made in seconds); keeps overrides.
+prune_dataset() {
+  local root=$1 seq=$2
+  [ "$keep_data" = 1 ] && return
+  case "$root" in "$data"/*-n[0-9]*) rm -rf "$root/sequences/$seq/mav0/cam0/data" "$root/sequences/$seq/mav0/cam1/data" ;; esac
+}
+
+# timing_json CLIENT_DIR -> JSON {stages: [{stage, seconds, calls, ms_per_call}], wall_s, frames, keyframes}
+timing_json() {
+  local wall frames kfs
+  wall=$(awk '$1 == "wall" { print $2 }' "$1/timing.txt")
+  frames=$(awk '$1 == "wall" { print $4 }' "$1/timing.txt" | tr -d ,)
+  kfs=$(awk '$1 == "wall" { print $6 }' "$1/timing.txt" | tr -d ,)
+  awk 'NR > 1 && $1 ~ /^[0-9]+$/ {
+         name = $2; for (i = 3; i <= NF - 3; i++) name = name " " $i
+         printf "{\"stage\":\"%s\",\"seconds\":%s,\"calls\":%s,\"ms_per_call\":%s}\n", name, $(NF-2), $(NF-1), $NF
+       }' "$1/timing.txt" |
+    jq -s --argjson wall "${wall:-null}" --argjson frames "${frames:-null}" --argjson kfs "${kfs:-null}" \
+      '{stages: ., wall_s: $wall, frames: $frames, keyframes: $kfs}'
+}
+
+# run_client DATASET SEQ RUN_DIR: the vehicle pipeline offline (prior from the dataset file).
+run_client() {
+  local ds=$1 seq=$2 run=$3
+  if [ -f "$run/client/timing.txt" ] && [ -f "$run/client/fused.txt" ]; then return; fi
+  rm -rf "$run/client"
+  mkdir -p "$run"
+  say "client on $seq ($(basename "$run")): VIO + stereo depth + GICP to the prior + fusion"
+  $nice_cmd "$bin_client" run --sequence "$ds/sequences/$seq" --odometry vio \
+    --prior "$ds/scenes/original/cloud.pcd" --out "$run/client" >"$run/client.log" 2>&1 ||
+    die "client failed on $seq (see $run/client.log)"
+}
+
+# evaluate_ate DATASET SEQ RUN_DIR
+evaluate_ate() {
+  local ds=$1 seq=$2 run=$3
+  local gt=$ds/sequences/$seq/mav0/state_groundtruth_estimate0/data.csv
+  for which in vio fused; do
+    "$bin_eval" ate "$gt" "$run/client/$which.txt" --json "$run/ate_$which.json" >/dev/null 2>>"$log" ||
+      die "ATE of $run/client/$which.txt failed (see $log)"
+  done
+}
+
+# detect_and_eval DATASET SEQ KEYFRAMES OUT_DIR TH_F BOUND: detection + paper metrics; the
+# detector's wall time goes to OUT_DIR/time_s.
+detect_and_eval() {
+  local ds=$1 seq=$2 kf=$3 dir=$4 thf=$5 bound=$6
+  [ -f "$dir/changes.json" ] && return
+  local scene=${seq%%_*}
+  local t0; t0=$(now_s)
+  $nice_cmd "$bin_detect" --prior "$ds/scenes/original/cloud.pcd" --keyframes "$kf" --out "$dir" \
+    --th-f "$thf" --free-ray-bound "$bound" >>"$log" 2>&1 || die "mapdelta-detect failed on $kf (see $log)"
+  elapsed "$t0" >"$dir/time_s"
+  "$bin_eval" changes --original "$ds/scenes/original/cloud.pcd" --changed "$ds/scenes/$scene/cloud.pcd" \
+    --new "$dir/new.pcd" --removed "$dir/removed.pcd" --global "$dir/global.pcd" \
+    --observed "$dir/observed.bt" --json "$dir/changes.json" >/dev/null 2>>"$log" ||
+    die "mapdelta-eval changes failed in $dir (see $log)"
+  # The clouds are large and reproducible; the metrics and summary stay.
+  [ "$keep_data" = 1 ] || rm -f "$dir/global.pcd" "$dir/observed.bt"
+}
+
+# run_json RUN_DIR SEQ NOISE TRIAL -> one run's JSON record.
+run_json() {
+  local run=$1 seq=$2 noise=$3 k=$4
+  local sweep="[]" d
+  for d in "$run"/detect/b*-thf*; do
+    [ -f "$d/changes.json" ] || continue
+    local name; name=$(basename "$d")
+    local b=${name#b}; b=${b%%-*}
+    local t=${name##*thf}
+    sweep=$(jq -c --argjson b "$b" --argjson t "$t" --slurpfile c "$d/changes.json" \
+      --argjson s "$(cat "$d/time_s")" '. + [{free_ray_bound_px: $b, th_f_m: $t, detect_s: $s, paper: $c[0].paper, reference_variant: $c[0].reference_variant}]' <<<"$sweep")
+  done
+  local vio="null"
+  [ -f "$run/detect-vio/changes.json" ] && vio=$(jq -c '{paper, reference_variant}' "$run/detect-vio/changes.json")
+  jq -n --arg seq "$seq" --arg noise "$noise" --argjson k "$k" \
+    --slurpfile av "$run/ate_vio.json" --slurpfile af "$run/ate_fused.json" \
+    --argjson timing "$(timing_json "$run/client")" --argjson sweep "$sweep" --argjson vio "$vio" \
+    --arg vio_params "$vio_point" \
+    '{sequence: $seq, noise: $noise, trial: $k,
+      ate_vio: ($av[0] | {rmse, std, max, mean, pairs}), ate_fused: ($af[0] | {rmse, std, max, mean, pairs}),
+      client_timing: $timing, sweep: $sweep, vio_pose_changes: $vio, vio_pose_params: $vio_params}'
+}

@@ -1,0 +1,159 @@
+#!/usr/bin/env bash
+# usage: report.sh RESULTS_JSON OUT_DIR -> OUT_DIR/report.md and OUT_DIR/plots/*.png (gnuplot).
+# Tables and plots of tools/reproduce-paper.sh's results.json (bash + jq + gnuplot only).
+set -euo pipefail
+[ $# -eq 2 ] || { sed -n '2,3p' "$0" >&2; exit 2; }
+res=$1 out=$2
+[ -f "$res" ] || { echo "report: $res: missing" >&2; exit 1; }
+plots=$out/plots
+mkdir -p "$plots"
+md=$out/report.md
+f3() { awk -v x="$1" 'BEGIN { if (x == "" || x == "null") print "–"; else printf "%.3f", x }'; }
+
+# Mean over a run group of a jq path; "null" if no value.
+J() { jq -r "$@" "$res"; }
+
+{
+  echo "# mapdelta: the paper's experiments on the simulator"
+  echo
+  J '"Preset `\(.preset)`, sequences \(.sequences | join(", ")), noise \(.noises | join(", ")), \(.trials) trial(s) (noise seeds 1..\(.trials)), city seed \(.city_seed). Commit `\(.commit)`, started \(.started), finished \(.finished); machine: \(.machine.nproc) × \(.machine.cpu), load average \(.machine.loadavg_at_start) at start, \(.loadavg_at_end) at the end."'
+  echo
+  echo "## Table III analogue: ATE (m, SE(3)-aligned, keyframe poses), mean over trials"
+  echo
+  echo "| sequence | noise | trials | VIO RMSE | VIO STD | VIO MAX | fused RMSE | fused STD | fused MAX |"
+  echo "|---|---|---|---|---|---|---|---|---|"
+  J '.runs | group_by([.sequence, .noise]) | .[] |
+     def m(f): (map(f) | add / length);
+     [.[0].sequence, .[0].noise, length, m(.ate_vio.rmse), m(.ate_vio.std), m(.ate_vio.max),
+      m(.ate_fused.rmse), m(.ate_fused.std), m(.ate_fused.max)] | @tsv' |
+    while IFS=$'\t' read -r s n k a b c d e f; do
+      echo "| $s | $n | $k | $(f3 "$a") | $(f3 "$b") | $(f3 "$c") | $(f3 "$d") | $(f3 "$e") | $(f3 "$f") |"
+    done
+  if J '.runs | any(.trial > 1)' | grep -q true; then
+    echo
+    echo "Per trial (RMSE VIO → fused):"
+    echo
+    J '.runs | sort_by(.sequence, .noise, .trial) | .[] | "- \(.sequence) \(.noise) trial \(.trial): \(.ate_vio.rmse * 1000 | round / 1000) → \(.ate_fused.rmse * 1000 | round / 1000) m"'
+  fi
+  echo
+  echo "## Fig. 4 analogue: th_f sweep (fused poses), mean over sequences and trials"
+  echo
+  for b in $(J '.free_ray_bounds_px[]'); do
+    if [ "$b" = 0 ]; then echo "Free-ray bound 0 (the paper's rule: every pixel without depth is free space up to th_f):"
+    else echo "Free-ray bound $b px (the server's default: a pixel without depth is free only up to the nearest depth within $b px):"; fi
+    echo
+    echo "| th_f (m) | R_new | P_new | R_rm | P_rm | detect time (s) |"
+    echo "|---|---|---|---|---|---|"
+    J --argjson b "$b" '[.runs[].sweep[] | select(.free_ray_bound_px == $b)] | group_by(.th_f_m) | .[] |
+       def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
+       [.[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm), m(.detect_s)] | @tsv' |
+      tee "$plots/thf_b$b.dat" |
+      while IFS=$'\t' read -r t a bb c d e; do
+        echo "| $t | $(f3 "$a") | $(f3 "$bb") | $(f3 "$c") | $(f3 "$d") | $(awk -v x="$e" 'BEGIN{printf "%.1f", x}') |"
+      done
+    echo
+    echo "![th_f sweep, bound $b px](plots/thf_b$b.png)"
+    echo
+    gnuplot <<EOG
+set terminal pngcairo size 640,420 font "sans,10"
+set output "$plots/thf_b$b.png"
+set title "th_f sweep (free-ray bound $b px), mean over runs"
+set xlabel "th_f (m)"; set ylabel "recall / precision"; set yrange [0:1.05]; set grid; set key bottom right
+plot "$plots/thf_b$b.dat" u 1:2 w lp lw 2 pt 7 t "R_{new}", "" u 1:3 w lp lw 2 pt 5 t "P_{new}", \
+     "" u 1:4 w lp lw 2 pt 9 t "R_{rm}", "" u 1:5 w lp lw 2 pt 11 t "P_{rm}"
+EOG
+  done
+  echo "Per sequence (mean over trials):"
+  echo
+  echo "| sequence | noise | bound (px) | th_f (m) | R_new | P_new | R_rm | P_rm |"
+  echo "|---|---|---|---|---|---|---|---|"
+  J '[.runs[] | . as $r | .sweep[] | . + {sequence: $r.sequence, noise: $r.noise}] |
+     group_by([.sequence, .noise, .free_ray_bound_px, .th_f_m]) | .[] |
+     def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
+     [.[0].sequence, .[0].noise, .[0].free_ray_bound_px, .[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm)] | @tsv' |
+    while IFS=$'\t' read -r s n b t a bb c d; do
+      echo "| $s | $n | $b | $t | $(f3 "$a") | $(f3 "$bb") | $(f3 "$c") | $(f3 "$d") |"
+    done
+  echo
+  echo "## Fig. 6 analogue: change metrics from fused vs VIO-only poses ($(J '.runs[0].vio_pose_params // "?"'))"
+  echo
+  echo "| sequence | noise | poses | R_new | P_new | R_rm | P_rm |"
+  echo "|---|---|---|---|---|---|---|"
+  : >"$plots/fig6.dat"
+  J '.th_f_point_m as $t | (.free_ray_bounds_px[0]) as $b | .runs | group_by([.sequence, .noise]) | .[] |
+     def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
+     (map(.sweep[] | select(.th_f_m == $t and .free_ray_bound_px == $b))) as $fz |
+     [.[0].sequence, .[0].noise,
+      ($fz | m(.paper.R_new)), ($fz | m(.paper.P_new)), ($fz | m(.paper.R_rm)), ($fz | m(.paper.P_rm)),
+      m(.vio_pose_changes.paper.R_new), m(.vio_pose_changes.paper.P_new), m(.vio_pose_changes.paper.R_rm), m(.vio_pose_changes.paper.P_rm)] | @tsv' |
+    while IFS=$'\t' read -r s n a b c d e f g h; do
+      echo "| $s | $n | fused | $(f3 "$a") | $(f3 "$b") | $(f3 "$c") | $(f3 "$d") |"
+      echo "| $s | $n | VIO only | $(f3 "$e") | $(f3 "$f") | $(f3 "$g") | $(f3 "$h") |"
+      for m in "R_new $a $e" "P_new $b $f" "R_rm $c $g" "P_rm $d $h"; do
+        set -- $m
+        echo "\"$s $1\" $2 $3" >>"$plots/fig6.dat"
+      done
+    done
+  echo
+  echo "![fused vs VIO-only poses](plots/fig6.png)"
+  gnuplot <<EOG
+set terminal pngcairo size 900,420 font "sans,10"
+set output "$plots/fig6.png"
+set title "Change metrics from fused vs VIO-only poses"
+set style data histogram; set style histogram clustered gap 1; set style fill solid 0.8 border -1
+set yrange [0:1.05]; set grid y; set xtics rotate by -35 nomirror; set key top right
+plot "$plots/fig6.dat" u 2:xtic(1) t "fused", "" u 3 t "VIO only"
+EOG
+  echo
+  echo "## Processing time per stage"
+  echo
+  echo "Vehicle client (\`timing.txt\`), mean over the runs above:"
+  echo
+  echo "| stage | ms per call | calls per run | s per run |"
+  echo "|---|---|---|---|"
+  J '[.runs[].client_timing.stages[]] | group_by(.stage) | .[] |
+     [.[0].stage, (map(.ms_per_call) | add / length), (map(.calls) | add / length), (map(.seconds) | add / length)] | @tsv' |
+    while IFS=$'\t' read -r s a b c; do
+      printf '| %s | %.1f | %.0f | %.1f |\n' "$s" "$a" "$b" "$c"
+    done
+  J '.runs | if length > 0 then "\nClient wall time per run: \(map(.client_timing.wall_s) | add / length | . * 10 | round / 10) s for \(map(.client_timing.frames) | add / length | round) frames, \(map(.client_timing.keyframes) | add / length | round) keyframes (mean); offline change detection (mapdelta-detect) \(map(.sweep[].detect_s) | add / length | . * 10 | round / 10) s per call." else empty end'
+  J 'if (.crowd // null) != null then "\nServer commit jobs (crowd experiment, \(.crowd.preset) \(.crowd.sequence)): " +
+       ([.crowd.commit_jobs[] | select(.started_at != null and .finished_at != null) |
+         ((.finished_at | sub("\\.[0-9]+"; "") | fromdateiso8601) - (.started_at | sub("\\.[0-9]+"; "") | fromdateiso8601))] |
+        if length > 0 then "\(length) jobs, \(add / length | . * 10 | round / 10) s mean, \(max) s max (1 s resolution)." else "no finished jobs." end)
+     else empty end'
+  J 'if (.dataset_times | length) > 0 then "\nDatasets made by this run: " +
+       ([.dataset_times[] | if .render_s then "render \(.preset)/\(.sequence) \(.render_s) s" else "renoise \(.preset)/\(.sequence) (\(.noise), seed \(.seed)) \(.renoise_s) s" end] | join("; ")) + " (wall time)."
+     else empty end'
+  if J '.crowd != null' | grep -q true; then
+    echo
+    echo "## Crowdsourcing: recall and precision vs number of uploads (beyond the paper)"
+    echo
+    J '"The same changed scene (\(.crowd.preset) \(.crowd.sequence)) driven N times with noise seeds 1..N, every session uploaded to one server and committed; the server aggregates sessions per tile and classifies against the merged observed area. **all**: every change point the server reports; **majority**: points with confidence > 0.5 (more supporting than non-supporting sessions). **offline merged**: mapdelta-detect on the N sessions'"'"' keyframes together (also the P_g / A_obs of the evaluation)."'
+    echo
+    echo "| uploads | all R_new | all P_new | all R_rm | all P_rm | majority R_new | majority P_new | majority R_rm | majority P_rm | offline R_new | offline P_new | offline R_rm | offline P_rm | changed tiles |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    J '.crowd.snapshots[] | [.uploads, .server_all.R_new, .server_all.P_new, .server_all.R_rm, .server_all.P_rm,
+        .server_majority.R_new, .server_majority.P_new, .server_majority.R_rm, .server_majority.P_rm,
+        .offline_merged.R_new, .offline_merged.P_new, .offline_merged.R_rm, .offline_merged.P_rm, (.changed_tiles | length)] | @tsv' |
+      tee "$plots/crowd.dat" |
+      while IFS=$'\t' read -r n a b c d e f g h i j k l t; do
+        echo "| $n | $(f3 "$a") | $(f3 "$b") | $(f3 "$c") | $(f3 "$d") | $(f3 "$e") | $(f3 "$f") | $(f3 "$g") | $(f3 "$h") | $(f3 "$i") | $(f3 "$j") | $(f3 "$k") | $(f3 "$l") | $t |"
+      done
+    echo
+    echo "![crowdsourcing curve](plots/crowd.png)"
+    gnuplot <<EOG
+set terminal pngcairo size 720,440 font "sans,10"
+set output "$plots/crowd.png"
+set title "Server aggregation: metrics vs number of uploads (solid: all points, dashed: confidence > 0.5)"
+set logscale x 2; set xlabel "uploads"; set ylabel "recall / precision"; set yrange [0:1.05]; set grid; set key bottom right
+plot "$plots/crowd.dat" u 1:2 w lp lw 2 pt 7 lc 1 t "R_{new}", "" u 1:3 w lp lw 2 pt 5 lc 2 t "P_{new}", \
+     "" u 1:4 w lp lw 2 pt 9 lc 3 t "R_{rm}", "" u 1:5 w lp lw 2 pt 11 lc 4 t "P_{rm}", \
+     "" u 1:6 w lp lw 1 dt 2 pt 7 lc 1 notitle, "" u 1:7 w lp lw 1 dt 2 pt 5 lc 2 notitle, \
+     "" u 1:8 w lp lw 1 dt 2 pt 9 lc 3 notitle, "" u 1:9 w lp lw 1 dt 2 pt 11 lc 4 notitle
+EOG
+  fi
+  echo
+  echo "Machine-readable: \`results.json\` (every run, every sweep point, the crowd snapshots, timings)."
+} >"$md"
+echo "report: $md" >&2
