@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Checks the paper-reproduction helpers against hand-computed answers (no simulator run):
+#  - repro/vio_keyframes.sh: T_map_cam = T_map_body * T_BS for an identity pose and a 90 deg yaw;
+#    a keyframe without a VIO pose is an error.
+#  - repro/crowd.sh merge_keyframes: stamps of session i shifted by i*1000 s, depth renamed.
+#  - repro/report.sh: Table III means over trials, the th_f table and the PNGs.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+tools=$here/../../tools
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+# A keyframe folder with two keyframes and T_BS = the simulator's body->cam0 (x right = -y_body...).
+kf=$tmp/kf
+mkdir -p "$kf/depth"
+printf 'width: 4\nheight: 2\nfx: 2\nfy: 2\ncx: 2\ncy: 1\ndepth_scale: 1000\n' >"$kf/camera.yaml"
+printf '# t x y z qx qy qz qw  (T_map_cam)\n1.000000000 0 0 0 0 0 0 1\n2.000000000 0 0 0 0 0 0 1\n' >"$kf/poses.txt"
+: >"$kf/depth/1000000000.png"
+: >"$kf/depth/2000000000.png"
+printf 'T_BS:\n  cols: 4\n  rows: 4\n  data: [0, 0, 1, 0.1, -1, 0, 0, 0.5, 0, -1, 0, 0.05, 0, 0, 0, 1]\n' >"$tmp/cam0.yaml"
+# Keyframe 1: identity body pose at (1, 2, 3); keyframe 2: yaw +90 deg at the origin.
+s=$(awk 'BEGIN { printf "%.12f", sqrt(0.5) }')
+printf '# t x y z qx qy qz qw\n1.000000000 1 2 3 0 0 0 1\n2.000000000 0 0 0 0 0 %s %s\n' "$s" "$s" >"$tmp/vio.txt"
+bash "$tools/repro/vio_keyframes.sh" "$kf" "$tmp/vio.txt" "$tmp/cam0.yaml" "$tmp/kfv"
+# Expected: kf1 t = (1.1, 2.5, 3.05), q of R_bc = [0 0 1; -1 0 0; 0 -1 0] = +-(-0.5, 0.5, -0.5, 0.5).
+# kf2: R = Rz(90) * R_bc = [1 0 0; 0 0 1; 0 -1 0] (rotation of -90 deg about x): q = +-(-0.7071, 0, 0, 0.7071),
+#      t = Rz(90) * (0.1, 0.5, 0.05) = (-0.5, 0.1, 0.05).
+check_pose() {  # LINE expected-t(3) expected-q(4)
+  awk -v l="$1" -v e="$2 $3 $4 $5 $6 $7 $8" 'BEGIN { split(l, a, " "); split(e, b, " ")
+    sgn = (a[5]*b[4] + a[6]*b[5] + a[7]*b[6] + a[8]*b[7] < 0) ? -1 : 1
+    for (i = 1; i <= 3; i++) if ((a[i+1] - b[i])^2 > 1e-12) exit 1
+    for (i = 4; i <= 7; i++) if ((sgn * a[i+1] - b[i])^2 > 1e-12) exit 1 }' || fail "pose '$1' != t($2 $3 $4) q($5 $6 $7 $8)"
+}
+check_pose "$(sed -n 2p "$tmp/kfv/poses.txt")" 1.1 2.5 3.05 -0.5 0.5 -0.5 0.5
+check_pose "$(sed -n 3p "$tmp/kfv/poses.txt")" -0.5 0.1 0.05 -"$s" 0 0 "$s"
+[ -e "$tmp/kfv/depth/2000000000.png" ] || fail "depth not carried over"
+printf '# t x y z qx qy qz qw\n1.000000000 1 2 3 0 0 0 1\n' >"$tmp/vio_short.txt"
+if bash "$tools/repro/vio_keyframes.sh" "$kf" "$tmp/vio_short.txt" "$tmp/cam0.yaml" "$tmp/kfx" 2>/dev/null; then
+  fail "a keyframe without VIO pose was accepted"
+fi
+
+# merge_keyframes (crowd.sh needs the driver's die/say only).
+started=$(date +%s)
+# shellcheck source=../../tools/repro/lib.sh
+. "$tools/repro/lib.sh"
+# shellcheck source=../../tools/repro/crowd.sh
+. "$tools/repro/crowd.sh"
+merge_keyframes "$tmp/merged" "$kf" "$tmp/kfv"
+[ "$(grep -vc '^#' "$tmp/merged/poses.txt")" = 4 ] || fail "merged poses: expected 4 lines"
+[ "$(sed -n 4p "$tmp/merged/poses.txt" | cut -d' ' -f1)" = 1001.000000000 ] || fail "session 2 stamp not shifted by 1000 s"
+[ -e "$tmp/merged/depth/1001000000000.png" ] && [ -e "$tmp/merged/depth/2000000000.png" ] || fail "merged depth names"
+
+# report.sh on a hand-made results.json: two trials of one sequence.
+cat >"$tmp/results.json" <<'EOJ'
+{"preset":"tiny","sequences":["S1_01"],"noises":["small"],"trials":2,"city_seed":1,"th_f_m":[10,20],
+ "free_ray_bounds_px":[128],"th_f_point_m":20,"commit":"abc","started":"s","finished":"f","loadavg_at_end":"1 1 1",
+ "machine":{"cpu":"cpu","nproc":2,"loadavg_at_start":"1 1 1"},"crowd":null,"dataset_times":[],
+ "runs":[
+  {"sequence":"S1_01","noise":"small","trial":1,"ate_vio":{"rmse":0.4,"std":0.1,"max":0.8},"ate_fused":{"rmse":0.1,"std":0.05,"max":0.2},
+   "client_timing":{"stages":[{"stage":"odometry","seconds":10,"calls":100,"ms_per_call":100}],"wall_s":12,"frames":100,"keyframes":10},
+   "sweep":[{"free_ray_bound_px":128,"th_f_m":10,"detect_s":2,"paper":{"R_new":0.9,"P_new":0.8,"R_rm":0.7,"P_rm":0.6}},
+            {"free_ray_bound_px":128,"th_f_m":20,"detect_s":4,"paper":{"R_new":1.0,"P_new":0.8,"R_rm":0.7,"P_rm":0.4}}],
+   "vio_pose_changes":{"paper":{"R_new":0.5,"P_new":0.5,"R_rm":0.5,"P_rm":0.5}},"vio_pose_params":"th_f 20 m"},
+  {"sequence":"S1_01","noise":"small","trial":2,"ate_vio":{"rmse":0.6,"std":0.3,"max":1.0},"ate_fused":{"rmse":0.3,"std":0.15,"max":0.4},
+   "client_timing":{"stages":[{"stage":"odometry","seconds":20,"calls":100,"ms_per_call":200}],"wall_s":22,"frames":100,"keyframes":10},
+   "sweep":[{"free_ray_bound_px":128,"th_f_m":10,"detect_s":2,"paper":{"R_new":0.7,"P_new":0.6,"R_rm":0.5,"P_rm":0.4}},
+            {"free_ray_bound_px":128,"th_f_m":20,"detect_s":4,"paper":{"R_new":0.8,"P_new":0.6,"R_rm":0.5,"P_rm":0.2}}],
+   "vio_pose_changes":{"paper":{"R_new":0.3,"P_new":0.3,"R_rm":0.3,"P_rm":0.3}},"vio_pose_params":"th_f 20 m"}]}
+EOJ
+bash "$tools/repro/report.sh" "$tmp/results.json" "$tmp/report" 2>/dev/null
+md=$tmp/report/report.md
+grep -qF '| S1_01 | small | 2 | 0.500 | 0.200 | 0.900 | 0.200 | 0.100 | 0.300 |' "$md" || fail "Table III row (means over 2 trials)"
+grep -qF '| 10 | 0.800 | 0.700 | 0.600 | 0.500 | 2.0 |' "$md" || fail "th_f 10 row"
+grep -qF '| S1_01 | small | VIO only | 0.400 | 0.400 | 0.400 | 0.400 |' "$md" || fail "Fig. 6 VIO row"
+grep -qF '| odometry | 150.0 | 100 | 15.0 |' "$md" || fail "timing row"
+for p in thf_b128 fig6; do [ -s "$tmp/report/plots/$p.png" ] || fail "plot $p.png missing"; done
+echo "repro helpers: all checks passed"
