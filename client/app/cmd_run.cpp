@@ -43,6 +43,10 @@ const char* kRunUsage =
     "  --initial-pose \"x y z qx qy qz qw\"  guess of T_map_body at the first keyframe\n"
     "                      (default: the sequence's ground truth, with a warning)\n"
     "  --max-frames N      stop after N frames\n"
+    "  --log-level L       debug | info (default) | warn | error\n"
+    "  --inject-reset-at S test fixture: an odometry reset S seconds after the first frame\n"
+    "                      (no pose for --inject-reset-gap S, default 0.5, then the odometry\n"
+    "                      in another frame: 30 deg yaw, 50 m away), as a VIO reset\n"
     "  --upload-wait S     seconds to wait for the upload to finish at the end (default 120);\n"
     "                      what is left stays queued: 'mapdelta-client upload OUT/keyframes ...'\n"
     "  --no-upload         with --server: only fetch the prior\n";
@@ -67,9 +71,12 @@ void WriteTiming(const std::string& path, const PipelineResult& r) {
                   t.calls ? 1000.0 * t.seconds / t.calls : 0.0);
     s << line;
   }
-  char tail[200];
-  std::snprintf(tail, sizeof(tail), "wall %.2f s, %zu frames, %zu keyframes, registrations %zu accepted / %zu rejected\n",
-                r.wall_seconds, r.frames, r.keyframes, r.registrations_accepted, r.registrations_rejected);
+  char tail[300];
+  std::snprintf(tail, sizeof(tail),
+                "wall %.2f s, %zu frames, %zu keyframes, registrations %zu accepted / %zu rejected, "
+                "odometry resets %zu (re-anchored %zu, keyframes without map pose %zu)\n",
+                r.wall_seconds, r.frames, r.keyframes, r.registrations_accepted, r.registrations_rejected,
+                r.odometry_resets, r.segments_reanchored, r.keyframes_unplaced);
   s << tail;
   std::ofstream(path) << s.str();
   std::fprintf(stderr, "%s", s.str().c_str());
@@ -81,7 +88,8 @@ int RunPipeline(int argc, char** argv) {
   Args args;
   try {
     args = ParseArgs(argc, argv, {"sequence", "odometry", "prior", "server", "token", "out", "config",
-                                  "initial-pose", "max-frames", "upload-wait"},
+                                  "initial-pose", "max-frames", "upload-wait",
+                                  "inject-reset-at", "inject-reset-gap", "log-level"},
                      {"no-upload"});
   } catch (const std::exception& e) {
     std::fprintf(stderr, "%s\n%s", e.what(), kRunUsage);
@@ -100,6 +108,14 @@ int RunPipeline(int argc, char** argv) {
   if (!missing.empty()) {
     std::fprintf(stderr, "missing:%s\n%s", missing.c_str(), kRunUsage);
     return 2;
+  }
+  if (args.Has("log-level")) {
+    log::Level level;
+    if (!log::ParseLevel(args.Get("log-level"), &level)) {
+      std::fprintf(stderr, "--log-level: expected debug, info, warn or error\n");
+      return 2;
+    }
+    log::SetLevel(level);
   }
   const ClientConfig config = args.Has("config") ? LoadClientConfig(args.Get("config")) : ClientConfig{};
   const std::string out = args.Get("out");
@@ -130,6 +146,18 @@ int RunPipeline(int argc, char** argv) {
   } else {
     odometry = std::make_unique<TrajectoryOdometrySource>(args.Get("odometry"));
   }
+  std::unique_ptr<OdometrySource> injected;
+  if (args.Has("inject-reset-at")) {
+    const auto frames = ReadEurocSequence(args.Get("sequence")).StereoFrames();
+    if (frames.empty()) throw Error(ErrorCode::kNotFound, args.Get("sequence") + ": no stereo frames");
+    const double at_s = std::stod(args.Get("inject-reset-at"));
+    const double gap_s = std::stod(args.Get("inject-reset-gap", "0.5"));
+    const SE3 T_new_old = MakeSE3(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitZ())),
+                                  Eigen::Vector3d(30.0, -40.0, 2.0));
+    injected = std::make_unique<InjectedResetOdometrySource>(
+        odometry.get(), frames.front().t_ns + static_cast<int64_t>(at_s * 1e9), gap_s, T_new_old);
+    MD_LOG(kInfo, "injecting an odometry reset at +" << at_s << " s (gap " << gap_s << " s)");
+  }
   std::unique_ptr<HttpTransport> transport;
   std::unique_ptr<PriorSource> prior;
   if (args.Has("server")) {
@@ -143,7 +171,7 @@ int RunPipeline(int argc, char** argv) {
 
   PipelineInputs in;
   in.sequence_dir = args.Get("sequence");
-  in.odometry = odometry.get();
+  in.odometry = injected ? injected.get() : odometry.get();
   in.prior = prior.get();
   in.keyframe_dir = out + "/keyframes";
   if (args.Has("initial-pose")) in.initial_T_map_body = ParsePose(args.Get("initial-pose"));

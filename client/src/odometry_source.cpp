@@ -1,5 +1,7 @@
 #include "mapdelta/client/odometry_source.hpp"
 
+#include <cmath>
+
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/trajectory_io.hpp"
 
@@ -17,6 +19,27 @@ std::optional<OdometrySample> TrajectoryOdometrySource::At(int64_t t_ns) {
   SE3 T;
   if (!InterpolateAt(trajectory_, t_ns, &T)) return std::nullopt;
   return OdometrySample{T, std::nullopt};
+}
+
+InjectedResetOdometrySource::InjectedResetOdometrySource(OdometrySource* inner, int64_t reset_t_ns,
+                                                         double gap_s, const SE3& T_new_old)
+    : inner_(inner), reset_t_ns_(reset_t_ns),
+      gap_end_t_ns_(reset_t_ns + static_cast<int64_t>(std::llround(gap_s * 1e9))), T_new_old_(T_new_old) {
+  if (inner == nullptr) throw Error(ErrorCode::kInvalidArgument, "InjectedResetOdometrySource: no inner source");
+  if (!(gap_s >= 0)) throw Error(ErrorCode::kInvalidArgument, "InjectedResetOdometrySource: gap_s must be >= 0");
+  if (!IsValidPose(T_new_old, 1e-6)) {
+    throw Error(ErrorCode::kInvalidArgument, "InjectedResetOdometrySource: T_new_old is not a rigid transform");
+  }
+}
+
+std::optional<OdometrySample> InjectedResetOdometrySource::At(int64_t t_ns) {
+  std::optional<OdometrySample> sample = inner_->At(t_ns);
+  if (!sample || t_ns < reset_t_ns_) return sample;
+  if (t_ns < gap_end_t_ns_) return std::nullopt;
+  sample->T_odom_body = T_new_old_ * sample->T_odom_body;
+  sample->rel_covariance.reset();  // the first step after the reset has no known motion
+  ++sample->segment;
+  return sample;
 }
 
 }  // namespace mapdelta::client

@@ -92,7 +92,11 @@ class Backend {
     EmitFinal(fusion_.size(), covariances);
     for (size_t k = 0; k < fusion_.size(); ++k) {
       result_->vio_T_map_body.push_back({fusion_.t_ns(k), fusion_.OdometryInMap(k)});
-      result_->fused_T_map_body.push_back({fusion_.t_ns(k), fusion_.FusedPose(k)});
+      if (Placed(k)) result_->fused_T_map_body.push_back({fusion_.t_ns(k), fusion_.FusedPose(k)});
+    }
+    if (result_->keyframes_unplaced > 0) {
+      MD_LOG(kWarn, result_->keyframes_unplaced << " keyframes after odometry resets were never "
+                                                   "re-anchored by a registration: not written or uploaded");
     }
   }
 
@@ -104,6 +108,8 @@ class Backend {
     std::vector<DepthFrame> frames;
     size_t center = 0;
     for (size_t j = (i >= w ? i - w : 0); j < std::min(raw_.size(), i + w + 1); ++j) {
+      // Poses of another odometry segment are in an unrelated frame: not reprojectable.
+      if (raw_[j].odom.segment != raw_[i].odom.segment) continue;
       if (j == i) center = frames.size();
       frames.push_back({raw_[j].odom.T_odom_body * rig_.T_body_cam0, &raw_[j].raw});
     }
@@ -113,7 +119,15 @@ class Backend {
       filtered = TemporalFilter(frames, center, rig_.left, config_.temporal_filter);
     }
     const KeyframeDepth& kf = raw_[i];
-    const size_t k = fusion_.AddKeyframe(kf.t_ns, kf.odom.T_odom_body, kf.odom.rel_covariance);
+    const size_t k = fusion_.AddKeyframe(kf.t_ns, kf.odom.T_odom_body, kf.odom.rel_covariance,
+                                         kf.odom.segment);
+    if (k > 0 && fusion_.SegmentOf(k) != fusion_.SegmentOf(k - 1)) {
+      ++result_->odometry_resets;
+      since_cloud_ = 0;  // local clouds never mix segments
+      MD_LOG(kWarn, "odometry segment " << kf.odom.segment << " starts at keyframe " << k
+                                        << ": odometry chain broken, predicted at constant velocity "
+                                           "until a registration re-anchors it");
+    }
     filtered_.push_back(std::move(filtered));
     ++filtered_in_window_;
     // Raw depth older than the window is no longer needed.
@@ -121,7 +135,10 @@ class Backend {
       raw_.pop_front();
       --filtered_in_window_;
     }
-    if ((k + 1) % static_cast<size_t>(config_.local_cloud.keyframes) == 0) Register(k);
+    if (++since_cloud_ == static_cast<size_t>(config_.local_cloud.keyframes)) {
+      since_cloud_ = 0;
+      Register(k);
+    }
   }
 
   // Local cloud of the last N keyframes anchored at k, registered to the prior.
@@ -141,12 +158,18 @@ class Backend {
     }
     RegistrationOutcome r;
     const auto& rc = config_.registration;
-    const bool relocalize = started_ && rejected_in_row_ >= rc.relocalize_after_rejections;
+    // A segment after an odometry reset is placed only by a constant-velocity guess: its first
+    // local cloud is re-localized coarse-to-fine, as at start-up, with the wider limits.
+    const bool reanchor = started_ && !fusion_.SegmentAnchored(k);
+    const bool relocalize = started_ && (reanchor || rejected_in_row_ >= rc.relocalize_after_rejections);
     {
       StageTimer::Scope t(timer_, "4 registration");
       const SE3 guess = fusion_.FusedPose(k);
       if (!started_) {
         r = registrar_->RefineInitialPose(local, guess);
+      } else if (reanchor) {
+        r = registrar_->RefineAmongGuesses(local, ReanchorGuesses(k), rc.relocalize_max_correction_m,
+                                           rc.relocalize_max_correction_deg * M_PI / 180.0);
       } else if (relocalize) {
         // Lost: odometry drifted beyond what the normal gate accepts. Search like at start-up.
         r = registrar_->RefineInitialPose(local, guess, rc.relocalize_max_correction_m,
@@ -155,7 +178,10 @@ class Backend {
         r = registrar_->Register(local, guess);
       }
     }
-    const char* mode = !started_ ? " (start-up)" : relocalize ? " (re-localization)" : "";
+    const char* mode = !started_  ? " (start-up)"
+                       : reanchor ? " (re-anchoring after an odometry reset)"
+                       : relocalize ? " (re-localization)"
+                                    : "";
     if (!r.accepted) {
       ++result_->registrations_rejected;
       ++rejected_in_row_;
@@ -169,6 +195,11 @@ class Backend {
                                                 << r.correction_rad * 180.0 / M_PI << " deg");
       started_ = true;
       result_->startup_refined = true;
+    } else if (reanchor) {
+      ++result_->segments_reanchored;
+      MD_LOG(kInfo, "odometry segment re-anchored at keyframe " << k << " at ("
+                                                              << r.T_map_body.translation().transpose() << "), "
+                                                              << r.reason);
     } else if (relocalize) {
       MD_LOG(kInfo, "re-localized at keyframe " << k << " by " << r.correction_m << " m, "
                                                 << r.correction_rad * 180.0 / M_PI << " deg");
@@ -188,16 +219,51 @@ class Backend {
     EmitFinal(end, covariances);
   }
 
+  // Hypotheses for keyframe k of a segment not yet anchored: the segment start at the
+  // constant-velocity prediction or at the last fused pose before the gap, turned about the
+  // vertical by evenly spaced headings, then carried to k by the segment's odometry.
+  std::vector<SE3> ReanchorGuesses(size_t k) const {
+    const size_t s0 = fusion_.SegmentStart(k);
+    const SE3 along = fusion_.OdometryPose(s0).inverse() * fusion_.OdometryPose(k);
+    std::vector<SE3> starts{fusion_.FusedPose(s0)};
+    if (s0 > 0) starts.push_back(fusion_.FusedPose(s0 - 1));
+    const int n = config_.registration.reanchor_yaw_hypotheses;
+    std::vector<SE3> guesses;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Matrix3d yaw = Eigen::AngleAxisd(2.0 * M_PI * i / n, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      for (const SE3& start : starts) {
+        SE3 turned = start;
+        turned.linear() = yaw * start.linear();
+        guesses.push_back(turned * along);
+      }
+    }
+    return guesses;
+  }
+
   static std::vector<size_t> Range(size_t begin, size_t end) {
     std::vector<size_t> out;
     for (size_t k = begin; k < end; ++k) out.push_back(k);
     return out;
   }
 
-  // Sends keyframes [first_unemitted_, end) downstream with their fused poses.
+  // Whether keyframe k has a pose in the map frame: the first odometry segment is placed by
+  // the start-up pose; a segment after a reset only once a registration re-anchored it (before,
+  // its pose is a constant-velocity guess across the gap).
+  bool Placed(size_t k) const {
+    return fusion_.SegmentOf(k) == fusion_.SegmentOf(0) || fusion_.SegmentAnchored(k);
+  }
+
+  // Sends keyframes [first_unemitted_, end) downstream with their fused poses; keyframes
+  // without a map pose (not Placed) are dropped.
   void EmitFinal(size_t end, const std::vector<std::optional<Matrix6>>& covariances) {
     const size_t begin = first_unemitted_;
     while (first_unemitted_ < end) {
+      if (!Placed(first_unemitted_)) {
+        ++result_->keyframes_unplaced;
+        filtered_.pop_front();
+        ++first_unemitted_;
+        continue;
+      }
       FinalKeyframe f;
       const size_t i = first_unemitted_ - begin;
       if (i < covariances.size() && covariances[i]) {
@@ -233,6 +299,7 @@ class Backend {
   size_t first_unemitted_ = 0;
   bool started_ = false;            // start-up refinement accepted
   int rejected_in_row_ = 0;
+  size_t since_cloud_ = 0;          // keyframes of the current segment since the last local cloud
 };
 
 }  // namespace
@@ -262,6 +329,7 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
     try {
       const StereoDepth stereo(config.stereo);
       std::optional<std::pair<int64_t, SE3>> last;
+      int last_segment = 0;
       for (const auto& frame : frames) {
         ++frames_done;
         if (frames_done % 100 == 0) {
@@ -274,8 +342,14 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
           odom = in.odometry->At(frame.t_ns);
         }
         if (!odom) continue;
-        if (last && !IsNewKeyframe(last->second, last->first, odom->T_odom_body, frame.t_ns, config.keyframes)) continue;
+        // A new odometry segment (reset) always starts with a keyframe: its poses are not
+        // comparable with the previous keyframe's.
+        if (last && odom->segment == last_segment &&
+            !IsNewKeyframe(last->second, last->first, odom->T_odom_body, frame.t_ns, config.keyframes)) {
+          continue;
+        }
         last = {frame.t_ns, odom->T_odom_body};
+        last_segment = odom->segment;
         KeyframeDepth kf{frame.t_ns, *odom, {}};
         {
           StageTimer::Scope t(&timer, "1 stereo depth");

@@ -7,6 +7,7 @@
 #include <chrono>
 
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/registration/se3_tangent.hpp"
 
 namespace mapdelta::client {
 namespace {
@@ -143,20 +144,32 @@ void PoseFusion::SetInitialPose(const SE3& T_map_body, const Matrix6& covariance
 }
 
 size_t PoseFusion::AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
-                               const std::optional<Matrix6>& rel_covariance) {
+                               const std::optional<Matrix6>& rel_covariance, int segment) {
   if (!IsValidPose(T_odom_body, 1e-6)) {
     throw Error(ErrorCode::kInvalidArgument, "fusion: odometry pose is not a valid rigid transform");
   }
   if (rel_covariance) SqrtInformation(*rel_covariance);
+  if (!keyframes_.empty() && t_ns <= keyframes_.back().t_ns) {
+    throw Error(ErrorCode::kInvalidArgument, "fusion: keyframe times must increase");
+  }
   KeyframeState s;
   s.t_ns = t_ns;
   s.T_odom_body = T_odom_body;
   s.rel_covariance = rel_covariance;
+  s.segment = segment;
   if (keyframes_.empty()) {
     if (!has_initial_) {
       throw Error(ErrorCode::kConflict, "fusion: SetInitialPose must come before the first keyframe");
     }
     SetState(&s, T_map_body0_);
+    segments_.push_back({segment, 0, T_map_body0_, initial_covariance_, false});
+  } else if (segment != keyframes_.back().segment) {
+    // Odometry reset: the new pose is unrelated to the previous segment's frame.
+    s.rel_covariance.reset();
+    Matrix6 covariance;
+    const SE3 predicted = PredictAcrossGap(t_ns, &covariance);
+    SetState(&s, predicted);
+    segments_.push_back({segment, keyframes_.size(), predicted, covariance, false});
   } else {
     const auto& prev = keyframes_.back();
     SetState(&s, FusedPose(keyframes_.size() - 1) * (prev.T_odom_body.inverse() * T_odom_body));
@@ -165,11 +178,49 @@ size_t PoseFusion::AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
   return keyframes_.size() - 1;
 }
 
+// Constant velocity from the last two fused poses of the ending segment (body-frame twist,
+// right perturbation), extrapolated over the gap; zero velocity if the segment had one pose.
+SE3 PoseFusion::PredictAcrossGap(int64_t t_ns, Matrix6* covariance) const {
+  const size_t n = keyframes_.size();
+  const SE3 last = FusedPose(n - 1);
+  const double gap_s = 1e-9 * static_cast<double>(t_ns - keyframes_[n - 1].t_ns);
+  SE3 predicted = last;
+  if (n >= 2 && keyframes_[n - 2].segment == keyframes_[n - 1].segment) {
+    const double dt_s = 1e-9 * static_cast<double>(keyframes_[n - 1].t_ns - keyframes_[n - 2].t_ns);
+    const Eigen::Matrix<double, 6, 1> twist = LocalRight(FusedPose(n - 2), last);
+    predicted = RetractRight(last, twist * (gap_s / dt_s));
+  }
+  const double sr = config_.reset_sigma_rot_rad + config_.reset_sigma_rot_per_s * gap_s;
+  const double st = config_.reset_sigma_trans_m + config_.reset_sigma_trans_per_s * gap_s;
+  *covariance = DiagonalCovariance(sr, st);
+  return predicted;
+}
+
+size_t PoseFusion::SegmentIndex(size_t k) const {
+  if (k >= keyframes_.size()) throw Error(ErrorCode::kInvalidArgument, "fusion: unknown keyframe");
+  // Segments are in keyframe order: the last one starting at or before k.
+  size_t i = segments_.size() - 1;
+  while (segments_[i].first_k > k) --i;
+  return i;
+}
+
+bool PoseFusion::SegmentAnchored(size_t k) const { return segments_[SegmentIndex(k)].anchored; }
+
 void PoseFusion::AddRegistration(size_t k, const SE3& T_map_body, const Matrix6& covariance) {
   if (k >= keyframes_.size()) throw Error(ErrorCode::kInvalidArgument, "fusion: registration of unknown keyframe");
   if (!IsValidPose(T_map_body, 1e-6)) throw Error(ErrorCode::kInvalidArgument, "fusion: bad registration pose");
   SqrtInformation(covariance);
-  registrations_.push_back({k, T_map_body, covariance});
+  Segment& segment = segments_[SegmentIndex(k)];
+  registrations_.push_back({k, T_map_body, covariance, !segment.anchored});
+  if (!segment.anchored && &segment != &segments_.front()) {
+    // Re-anchoring: the constant-velocity guess may be far off (even in heading); start the
+    // solver from the registration carried along the segment's odometry.
+    const SE3 T_map_odom = T_map_body * keyframes_[k].T_odom_body.inverse();
+    for (size_t j = segment.first_k; j < keyframes_.size() && keyframes_[j].segment == segment.id; ++j) {
+      SetState(&keyframes_[j], T_map_odom * keyframes_[j].T_odom_body);
+    }
+  }
+  segment.anchored = true;
   last_registered_ = std::max(last_registered_, static_cast<long>(k));
 }
 
@@ -182,7 +233,9 @@ SE3 PoseFusion::FusedPose(size_t k) const {
 SE3 PoseFusion::OdometryPose(size_t k) const { return keyframes_.at(k).T_odom_body; }
 
 SE3 PoseFusion::OdometryInMap(size_t k) const {
-  return T_map_body0_ * keyframes_.at(0).T_odom_body.inverse() * keyframes_.at(k).T_odom_body;
+  const Segment& segment = segments_[SegmentIndex(k)];
+  return segment.T_map_body_start * keyframes_.at(segment.first_k).T_odom_body.inverse() *
+         keyframes_.at(k).T_odom_body;
 }
 
 void PoseFusion::ComputeCovariances(ceres::Problem* problem, const std::vector<size_t>& which,
@@ -235,17 +288,23 @@ FusionSummary PoseFusion::Optimize(int max_iterations, const std::vector<size_t>
     problem.AddParameterBlock(s.q, 4, new ceres::EigenQuaternionManifold);
     problem.AddParameterBlock(s.p, 3);
   }
-  // 1. Start-up prior on keyframe 0.
-  {
+  // 1. Start-up prior on keyframe 0; after each odometry reset, the constant-velocity
+  //    prediction on the new segment's first keyframe.
+  for (const Segment& segment : segments_) {
+    // A re-anchored segment's prediction is superseded by its registration (the prediction
+    // cannot know about a stop, reversal or heading change during the gap).
+    if (segment.anchored && &segment != &segments_.front()) continue;
     auto* cost = new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost{
-        Eigen::Quaterniond(T_map_body0_.linear()), T_map_body0_.translation(),
-        SqrtInformation(initial_covariance_)});
-    problem.AddResidualBlock(cost, nullptr, keyframes_[0].q, keyframes_[0].p);
+        Eigen::Quaterniond(segment.T_map_body_start.linear()), segment.T_map_body_start.translation(),
+        SqrtInformation(segment.covariance)});
+    auto& s = keyframes_[segment.first_k];
+    problem.AddResidualBlock(cost, nullptr, s.q, s.p);
   }
-  // 2. Odometry between consecutive keyframes.
+  // 2. Odometry between consecutive keyframes of the same segment.
   for (size_t k = 1; k < keyframes_.size(); ++k) {
     auto& a = keyframes_[k - 1];
     auto& b = keyframes_[k];
+    if (a.segment != b.segment) continue;
     const SE3 dT = a.T_odom_body.inverse() * b.T_odom_body;
     const double step = dT.translation().norm();
     const Matrix6 cov = b.rel_covariance
@@ -260,12 +319,13 @@ FusionSummary PoseFusion::Optimize(int max_iterations, const std::vector<size_t>
   // 3. Registration factors (robust): global position, and rotation relative to the first
   //    registered keyframe.
   //    The first registration (the start-up fix, which sets the absolute heading the paper
-  //    assumes known) enters as a full 6-DoF pose factor with its full covariance.
+  //    assumes known) enters as a full 6-DoF pose factor with its full covariance, and so
+  //    does the first registration of every later odometry segment (its re-anchoring).
   const Registration* anchor = registrations_.empty() ? nullptr : &registrations_.front();
   for (const auto& reg : registrations_) {
     auto& s = keyframes_[reg.k];
     const Eigen::Matrix3d R = reg.T_map_body.linear();
-    if (&reg == anchor) {
+    if (reg.segment_first) {
       problem.AddResidualBlock(
           new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost{
               Eigen::Quaterniond(R), reg.T_map_body.translation(), SqrtInformation(reg.covariance)}),

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <algorithm>
 #include <map>
 #include <optional>
 
@@ -40,6 +41,20 @@ struct PriorRegistrar::Impl {
     return &*target;
   }
 
+  // Share of the local cloud's points within radius_m of a prior point at T: a sharper test of
+  // "the surfaces coincide" than the gate's inlier fraction at the wide correspondence radius.
+  double CloseFraction(const PointCloud& local, const SE3& T, double radius_m) {
+    const GicpCloud* tgt = Target(T.translation());
+    if (tgt == nullptr || local.empty()) return 0.0;
+    const Eigen::Isometry3f Tf = T.cast<float>();
+    size_t close = 0, index = 0;
+    float distance = 0;
+    for (const auto& p : local) {
+      close += tgt->NearestWithin(Tf * p, static_cast<float>(radius_m), &index, &distance);
+    }
+    return static_cast<double>(close) / static_cast<double>(local.size());
+  }
+
   RegistrationOutcome Run(const PointCloud& local, const SE3& guess, double coarse_corr_m,
                           const RegistrationGate& gate) {
     const auto start = std::chrono::steady_clock::now();
@@ -65,6 +80,9 @@ struct PriorRegistrar::Impl {
     out.T_map_body = result.T_target_source;
     out.covariance = result.covariance;
     out.fitness_m = result.fitness_m;
+    out.inlier_fraction = result.num_source_points == 0
+                              ? 0.0
+                              : static_cast<double>(result.num_inliers) / static_cast<double>(result.num_source_points);
     out.correction_m = decision.correction_m;
     out.correction_rad = decision.correction_rad;
     out.iterations = result.iterations;
@@ -98,6 +116,51 @@ RegistrationOutcome PriorRegistrar::RefineInitialPose(const PointCloud& local_bo
   gate.max_correction_rad = max_guess_error_rad;
   const double coarse = std::max(2.5 * impl_->config.max_correspondence_m, 2.0 * max_guess_error_m);
   return impl_->Run(local_body, guess, coarse, gate);
+}
+
+RegistrationOutcome PriorRegistrar::RefineAmongGuesses(const PointCloud& local_body,
+                                                      const std::vector<SE3>& guesses,
+                                                      double max_guess_error_m, double max_guess_error_rad,
+                                                      double ambiguity_ratio) {
+  std::vector<std::pair<double, RegistrationOutcome>> accepted;  // (close fraction, outcome)
+  RegistrationOutcome first_rejected;
+  const double close_radius = 0.5 * impl_->config.max_fitness_m;
+  for (const SE3& guess : guesses) {
+    RegistrationOutcome r = RefineInitialPose(local_body, guess, max_guess_error_m, max_guess_error_rad);
+    const double close = r.accepted ? impl_->CloseFraction(local_body, r.T_map_body, close_radius) : 0.0;
+    MD_LOG(kDebug, "re-anchor hypothesis at (" << guess.translation().transpose() << "): " << r.reason
+                                                << ", within " << close_radius << " m " << close
+                                                << ", fitness " << r.fitness_m << " m, result ("
+                                                << r.T_map_body.translation().transpose() << ")");
+    if (r.accepted) {
+      accepted.emplace_back(close, std::move(r));
+    } else if (first_rejected.reason.empty()) {
+      first_rejected = std::move(r);
+    }
+  }
+  if (accepted.empty()) {
+    first_rejected.reason = "none of " + std::to_string(guesses.size()) + " guesses accepted (first: " +
+                            first_rejected.reason + ")";
+    return first_rejected;
+  }
+  std::sort(accepted.begin(), accepted.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  const double best_close = accepted.front().first;
+  RegistrationOutcome best = accepted.front().second;
+  for (size_t i = 1; i < accepted.size(); ++i) {
+    const auto& [close, other] = accepted[i];
+    const bool elsewhere = (other.T_map_body.translation() - best.T_map_body.translation()).norm() > 1.0 ||
+                           RotationAngle(other.T_map_body, best.T_map_body) > 5.0 * M_PI / 180.0;
+    if (elsewhere && close >= ambiguity_ratio * best_close) {
+      best.accepted = false;
+      best.reason = "ambiguous: two of " + std::to_string(guesses.size()) +
+                    " guesses converged to different poses with " + std::to_string(best_close) + " and " +
+                    std::to_string(close) + " of the points within " + std::to_string(close_radius) + " m";
+      return best;
+    }
+  }
+  best.reason = "accepted (" + std::to_string(accepted.size()) + " of " + std::to_string(guesses.size()) +
+                " guesses)";
+  return best;
 }
 
 }  // namespace mapdelta::client

@@ -16,8 +16,7 @@ struct VioOdometrySource::Impl {
   std::unique_ptr<vio::StereoInertialOdometry> vio;
   std::map<int64_t, StereoFrameFiles> frames;
   size_t next_imu = 0;
-  int resets = 0;
-  bool after_reset = false;
+  int resets = 0;  // also the segment of the poses reported now
 };
 
 VioOdometrySource::VioOdometrySource(const EurocSequence& sequence) : impl_(std::make_unique<Impl>()) {
@@ -49,15 +48,11 @@ std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns) {
   const vio::FrameEstimate e = impl_->vio->AddStereoFrame(t_ns, lv, rv);
   if (e.reset) {
     ++impl_->resets;
-    impl_->after_reset = true;
-    MD_LOG(kWarn, "VIO reset at t_ns " << t_ns << ": the next odometry step is not trusted");
+    MD_LOG(kWarn, "VIO reset at t_ns " << t_ns << ": odometry segment " << impl_->resets
+                                       << " starts when it re-initializes (new world frame)");
   }
   if (!e.initialized) return std::nullopt;
-  OdometrySample sample{e.T_world_body, std::nullopt};
-  if (impl_->after_reset) {
-    sample.rel_covariance = Eigen::Matrix<double, 6, 6>::Identity() * 1e6;
-    impl_->after_reset = false;
-  }
+  OdometrySample sample{e.T_world_body, std::nullopt, impl_->resets};
   return sample;
 }
 

@@ -63,7 +63,17 @@ struct Outcome {
   double odom_ate, fused_ate, fused_ate_unaligned, final_seconds;
 };
 
-Outcome RunCase(const Case& c, unsigned seed) {
+// An odometry reset injected at keyframe `at`: the keyframes at..at+gap-1 are lost (the VIO
+// re-initializing) and the odometry continues in another frame, T_new_old * T_odom. With
+// tell_fusion the new keyframes carry segment 1 (what the client does); without, segment 0
+// (the old behaviour: the chain runs across the reset).
+struct ResetInjection {
+  int at = -1;
+  int gap = 0;
+  bool tell_fusion = true;
+};
+
+Outcome RunCase(const Case& c, unsigned seed, const ResetInjection& reset = {}) {
   const int n = 300;
   const Trajectory gt = GroundTruth(n);
   std::mt19937 rng(seed);
@@ -91,7 +101,8 @@ Outcome RunCase(const Case& c, unsigned seed) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
 
   SE3 T_odom = SE3::Identity();
-  std::vector<SE3> odom_in_map;
+  const SE3 T_new_old = Perturb(SE3::Identity(), Eigen::Vector3d(0.1, -0.05, 2.5), Eigen::Vector3d(40, -70, 3));
+  std::vector<int> used;  // keyframes given to the fusion (the gap's are lost)
   for (int k = 0; k < n; ++k) {
     if (k > 0) {
       const SE3 step = gt[k - 1].T.inverse() * gt[k].T;
@@ -100,24 +111,32 @@ Outcome RunCase(const Case& c, unsigned seed) {
       noisy.translation() *= 1.0 + c.scale_error;
       T_odom = T_odom * noisy;
     }
-    fusion.AddKeyframe(gt[k].t_ns, T_odom, k > 0 ? std::optional<Matrix6>(step_cov) : std::nullopt);
+    const bool after_reset = reset.at >= 0 && k >= reset.at;
+    if (after_reset && k < reset.at + reset.gap) continue;
+    const bool first_after = after_reset && k == reset.at + reset.gap;
+    fusion.AddKeyframe(gt[k].t_ns, after_reset ? T_new_old * T_odom : T_odom,
+                       k > 0 && !first_after ? std::optional<Matrix6>(step_cov) : std::nullopt,
+                       after_reset && reset.tell_fusion ? 1 : 0);
+    used.push_back(k);
     if (k % 5 == 4) {
       Eigen::Matrix<double, 6, 1> z;
       for (int i = 0; i < 6; ++i) z[i] = normal(rng);
       Eigen::Matrix<double, 6, 1> d = L * z;
       if (unit(rng) < 0.05) d.tail<3>() += 2.5 * randn3().normalized();  // passes a 4 m gate
-      fusion.AddRegistration(k, Perturb(gt[k].T, d.head<3>(), d.tail<3>()), reg_cov);
+      fusion.AddRegistration(used.size() - 1, Perturb(gt[k].T, d.head<3>(), d.tail<3>()), reg_cov);
       fusion.Optimize(config.incremental_iterations);
     }
   }
   const FusionSummary final_pass = fusion.Optimize(config.final_iterations);
   EXPECT_TRUE(final_pass.usable);
   std::vector<SE3> fused, odom;
-  for (int k = 0; k < n; ++k) {
-    fused.push_back(fusion.FusedPose(k));
-    odom.push_back(fusion.OdometryInMap(k));
+  Trajectory gt_used;
+  for (size_t i = 0; i < used.size(); ++i) {
+    fused.push_back(fusion.FusedPose(i));
+    odom.push_back(fusion.OdometryInMap(i));
+    gt_used.push_back(gt[used[i]]);
   }
-  return {Ate(odom, gt, true), Ate(fused, gt, true), Ate(fused, gt, false), final_pass.seconds};
+  return {Ate(odom, gt_used, true), Ate(fused, gt_used, true), Ate(fused, gt_used, false), final_pass.seconds};
 }
 
 TEST(PoseFusion, FusedAteWellBelowDriftingOdometryAndNeverWorse) {
@@ -139,6 +158,63 @@ TEST(PoseFusion, FusedAteWellBelowDriftingOdometryAndNeverWorse) {
       EXPECT_LT(o.fused_ate_unaligned, 0.5) << c.name << " seed " << seed;
     }
   }
+}
+
+// Oracle: the same drifting odometry and registrations with and without an injected reset.
+// The odometry chain breaks at the reset (no factor across it), the new segment starts at a
+// constant-velocity guess and its first registration re-anchors it: the fused ATE stays close
+// to the no-reset case. Chaining across the reset (old behaviour) is far off.
+TEST(PoseFusion, OdometryResetBreaksTheChainAndReanchors) {
+  const Case c{"small drift", 0.002, 0.0, 0.01, 0.0005, 0.01};
+  std::printf("reset case                     seed  fused ATE aligned / unaligned\n");
+  for (unsigned seed : {1u}) {
+    const Outcome none = RunCase(c, seed);
+    // 3 keyframes lost (1.5 s); 12 lost (6 s on the curving loop: the constant-velocity guess
+    // is tens of metres and degrees off, only the registration can place the segment).
+    for (int gap : {3, 12}) {
+      const Outcome broken = RunCase(c, seed, {151, gap, true});
+      const Outcome chained = RunCase(c, seed, {151, gap, false});
+      std::printf("no reset                       %4u  %7.3f / %7.3f m\n", seed, none.fused_ate, none.fused_ate_unaligned);
+      std::printf("reset, gap %2d, chain broken    %4u  %7.3f / %7.3f m\n", gap, seed, broken.fused_ate,
+                  broken.fused_ate_unaligned);
+      std::printf("reset, gap %2d, chained (old)   %4u  %7.3f / %7.3f m\n", gap, seed, chained.fused_ate,
+                  chained.fused_ate_unaligned);
+      EXPECT_LT(broken.fused_ate_unaligned, 1.2 * none.fused_ate_unaligned + 0.05) << "gap " << gap;
+      EXPECT_GT(chained.fused_ate_unaligned, 5.0 * broken.fused_ate_unaligned) << "gap " << gap;
+    }
+  }
+}
+
+TEST(PoseFusion, SegmentStartsAtConstantVelocityAndIsAnchoredByItsFirstRegistration) {
+  // Straight line at 2 m/s along x; reset after keyframe 4 (t = 4 s), next keyframe at 6 s.
+  PoseFusion fusion(FusionConfig{});
+  fusion.SetInitialPose(SE3::Identity(), Matrix6::Identity() * 1e-4);
+  const auto at = [](double x) {
+    SE3 T = SE3::Identity();
+    T.translation().x() = x;
+    return T;
+  };
+  for (int k = 0; k < 5; ++k) fusion.AddKeyframe(k * 1'000'000'000LL, at(2.0 * k));
+  // New segment: an arbitrary frame (odometry starts at identity again).
+  const size_t s0 = fusion.AddKeyframe(6'000'000'000LL, at(0.0), std::nullopt, 1);
+  EXPECT_LT((fusion.FusedPose(s0).translation() - Eigen::Vector3d(12, 0, 0)).norm(), 1e-6);
+  EXPECT_FALSE(fusion.SegmentAnchored(s0));
+  EXPECT_FALSE(fusion.SegmentAnchored(0));  // no registration yet in the first segment either
+  EXPECT_EQ(fusion.SegmentStart(s0), s0);
+  const size_t s1 = fusion.AddKeyframe(7'000'000'000LL, at(2.0), std::nullopt, 1);
+  // The truth turned around during the gap: the vehicle is at x = 5 heading back (-x).
+  SE3 truth = SE3::Identity();
+  truth.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  truth.translation() = Eigen::Vector3d(5, 0, 0);
+  fusion.AddRegistration(s1, truth, Matrix6::Identity() * 1e-4);
+  EXPECT_TRUE(fusion.SegmentAnchored(s0));
+  fusion.Optimize(50);
+  EXPECT_LT((fusion.FusedPose(s1).translation() - truth.translation()).norm(), 1e-3);
+  EXPECT_LT(RotationAngle(fusion.FusedPose(s1), truth), 1e-3);
+  // s0 is 2 m behind s1 along the new heading: x = 7.
+  EXPECT_LT((fusion.FusedPose(s0).translation() - Eigen::Vector3d(7, 0, 0)).norm(), 1e-3);
+  // The previous segment is untouched by the other segment's registration.
+  EXPECT_LT((fusion.FusedPose(4).translation() - Eigen::Vector3d(8, 0, 0)).norm(), 1e-3);
 }
 
 TEST(PoseFusion, RejectsBadInput) {

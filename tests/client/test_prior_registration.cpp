@@ -119,6 +119,33 @@ TEST_F(PriorRegistrationTest, RelocalizationRecoversLargerDriftWithinItsLimits) 
   EXPECT_LT(dt, 0.1);
 }
 
+TEST_F(PriorRegistrationTest, ReanchoringAmongHeadingHypothesesFindsTheTruth) {
+  // After an odometry reset the heading is unknown (the vehicle turned during the gap): the
+  // hypotheses are 12 headings at a position 3 m off; only the ones near the true heading can
+  // converge, and the winner must be the truth.
+  FilePriorSource prior(path_, 0.4);
+  const RegistrationConfig config;
+  PriorRegistrar registrar(config, &prior);
+  const SE3 truth = Pose(2.0, -2.0, 175.0);
+  const PointCloud local = LocalCloud(scene_, truth, 5);
+  std::vector<SE3> guesses;
+  for (int i = 0; i < 12; ++i) guesses.push_back(Offset(Pose(4.0, 0.0, 0.0), 0, 0, 30.0 * i));
+  const RegistrationOutcome r = registrar.RefineAmongGuesses(
+      local, guesses, config.relocalize_max_correction_m, config.relocalize_max_correction_deg * M_PI / 180.0);
+  const double dt = (r.T_map_body.translation() - truth.translation()).norm();
+  const double dr = RotationAngle(r.T_map_body, truth) * 180.0 / M_PI;
+  std::printf("re-anchoring among 12 headings: %s, error %.3f m %.3f deg\n", r.reason.c_str(), dt, dr);
+  EXPECT_TRUE(r.accepted) << r.reason;
+  EXPECT_LT(dt, 0.1);
+  EXPECT_LT(dr, 0.3);
+  // Far from any prior structure the same search is rejected with a reason.
+  std::vector<SE3> lost;
+  for (int i = 0; i < 4; ++i) lost.push_back(Offset(Pose(5000.0, 0.0, 0.0), 0, 0, 90.0 * i));
+  const RegistrationOutcome none = registrar.RefineAmongGuesses(local, lost, 8.0, 0.26);
+  EXPECT_FALSE(none.accepted);
+  EXPECT_NE(none.reason.find("none of 4"), std::string::npos) << none.reason;
+}
+
 TEST_F(PriorRegistrationTest, BadGuessIsRejectedNotAccepted) {
   FilePriorSource prior(path_, 0.4);
   PriorRegistrar registrar(RegistrationConfig{}, &prior);

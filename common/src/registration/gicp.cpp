@@ -213,6 +213,9 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
         converged = true;  // the minimum for these correspondences: nothing left to take
         break;
       }
+      MD_LOG(kDebug, "AlignGicp: iteration " << iteration << " lambda " << lambda << " step "
+                                             << delta.head<3>().norm() << " rad " << delta.tail<3>().norm()
+                                             << " m, error " << lin.error << ", inliers " << lin.inliers);
       const SE3 candidate = RetractRight(T, delta);
       if (problem.ErrorWithFixedCorrespondences(candidate) < lin.error) {
         T = candidate;

@@ -52,6 +52,11 @@ struct RegistrationConfig {
   int relocalize_after_rejections = 2;
   double relocalize_max_correction_m = 8.0;
   double relocalize_max_correction_deg = 15.0;
+  // Re-anchoring after an odometry reset tries the segment start at the constant-velocity
+  // prediction and at the last fused pose (stopped), each turned by this many evenly spaced
+  // headings (the new VIO frame's yaw is arbitrary and the vehicle may have turned or
+  // reversed during the gap); the relocalize_* limits apply around each hypothesis.
+  int reanchor_yaw_hypotheses = 12;
 };
 
 struct FusionConfig {
@@ -64,6 +69,13 @@ struct FusionConfig {
   int final_lag_keyframes = 30;        // keyframes this far behind the newest are final
   double init_sigma_rot_rad = 0.1;     // prior on the first pose (start-up guess, refined)
   double init_sigma_trans_m = 2.0;
+  // After an odometry reset the new segment's first keyframe is predicted at constant velocity
+  // from the last fused poses; the prediction enters as a weak pose prior with these sigmas
+  // (base + growth per second of odometry gap) until a registration re-anchors the segment.
+  double reset_sigma_rot_rad = 0.1;
+  double reset_sigma_rot_per_s = 0.1;
+  double reset_sigma_trans_m = 2.0;
+  double reset_sigma_trans_per_s = 2.0;
 };
 
 struct UploadConfig {

@@ -13,6 +13,10 @@ struct OdometrySample {
   SE3 T_odom_body = SE3::Identity();
   // Covariance of the motion since the previous sample asked for, if the source knows it.
   std::optional<Eigen::Matrix<double, 6, 6>> rel_covariance;
+  // Odometry segment: increments whenever the odometry frame changes (a VIO reset and its
+  // re-initialization in a new, arbitrary world frame). Poses of different segments are
+  // unrelated: the client breaks its odometry chain there and re-localizes in the map.
+  int segment = 0;
 };
 
 class OdometrySource {
@@ -33,6 +37,23 @@ class TrajectoryOdometrySource : public OdometrySource {
 
  private:
   Trajectory trajectory_;
+};
+
+// Test and measurement fixture: another source with an injected odometry reset. From reset_t_ns
+// on it reports no pose for gap_s seconds (the VIO re-initializing), then the inner poses
+// re-expressed in another frame, T_new_old * T_odom_body (an arbitrary rigid transform, as a
+// re-initialized VIO's world frame), in the next segment. The inner source is still asked at
+// every time so its state advances as without the reset.
+class InjectedResetOdometrySource : public OdometrySource {
+ public:
+  InjectedResetOdometrySource(OdometrySource* inner, int64_t reset_t_ns, double gap_s, const SE3& T_new_old);
+  std::optional<OdometrySample> At(int64_t t_ns) override;
+
+ private:
+  OdometrySource* inner_;
+  int64_t reset_t_ns_;
+  int64_t gap_end_t_ns_;
+  SE3 T_new_old_;
 };
 
 }  // namespace mapdelta::client

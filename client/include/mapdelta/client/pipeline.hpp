@@ -38,12 +38,15 @@ struct StageTiming {
 
 struct PipelineResult {
   Trajectory vio_T_map_body;    // odometry mapped into the map frame by the start-up pose
-  Trajectory fused_T_map_body;  // after the final pass
+  Trajectory fused_T_map_body;  // after the final pass; keyframes without a map pose omitted
   size_t frames = 0;
   size_t keyframes = 0;
   size_t registrations_accepted = 0;
   size_t registrations_rejected = 0;
   bool startup_refined = false;
+  size_t odometry_resets = 0;      // odometry segment changes seen (VIO resets)
+  size_t segments_reanchored = 0;  // segments after a reset re-localized by a registration
+  size_t keyframes_unplaced = 0;   // keyframes of never re-anchored segments: not written/uploaded
   std::vector<StageTiming> timing;
   double wall_seconds = 0;
 };

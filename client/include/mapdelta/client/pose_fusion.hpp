@@ -10,6 +10,12 @@
 //   - the first registration (the start-up fix: the paper assumes an accurate initial pose,
 //     heading included) as a full 6-DoF pose factor; it is also the relative rotation
 //     factors' reference frame a.
+// Odometry resets: every keyframe carries its odometry segment (OdometrySample::segment). No
+// odometry factor joins two segments; a new segment's first keyframe starts at a
+// constant-velocity prediction from the last fused poses, held by a weak pose prior
+// (FusionConfig::reset_sigma_*), and the segment's first accepted registration enters as a
+// full 6-DoF pose factor (it re-anchors the segment, like the start-up fix). Re-anchoring drops
+// the weak prior and re-seeds the segment's poses from the registration through the odometry.
 // Registration factors use the registration covariance and a Huber loss. All covariances are
 // 6x6 [rotation, translation], right perturbation T (+) d = (R Exp(w), t + R v), as GICP's.
 #include <Eigen/Core>
@@ -45,8 +51,10 @@ class PoseFusion {
   // Appends keyframe k = size(); T_odom_body is the VIO pose in its own frame; rel_covariance
   // is the covariance of the motion from the previous keyframe (right perturbation), if known.
   // The new keyframe's fused pose starts as the previous fused pose times the odometry motion.
+  // A keyframe whose segment differs from the previous keyframe's starts a new segment (see
+  // the header comment); rel_covariance is then ignored.
   size_t AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
-                     const std::optional<Matrix6>& rel_covariance = std::nullopt);
+                     const std::optional<Matrix6>& rel_covariance = std::nullopt, int segment = 0);
   // An accepted registration of keyframe k: its measured T_map_body and covariance.
   // Throws Error(kInvalidArgument) on a bad index, pose or covariance.
   void AddRegistration(size_t k, const SE3& T_map_body, const Matrix6& covariance);
@@ -64,8 +72,15 @@ class PoseFusion {
   int64_t t_ns(size_t k) const { return keyframes_[k].t_ns; }
   SE3 FusedPose(size_t k) const;     // T_map_body
   SE3 OdometryPose(size_t k) const;  // T_odom_body as given
-  // Odometry mapped into the map frame through the initial pose only (what the VIO alone gives).
+  // Odometry mapped into the map frame through the initial pose only (what the VIO alone gives);
+  // after a reset, through the segment's constant-velocity start prediction.
   SE3 OdometryInMap(size_t k) const;
+  int SegmentOf(size_t k) const { return keyframes_.at(k).segment; }
+  // Whether keyframe k's segment has an accepted registration (is tied to the map).
+  bool SegmentAnchored(size_t k) const;
+  size_t num_segments() const { return segments_.size(); }
+  // First keyframe of keyframe k's segment.
+  size_t SegmentStart(size_t k) const { return segments_[SegmentIndex(k)].first_k; }
   // Index of the newest keyframe that has a registration after it (or -1).
   long LastRegisteredKeyframe() const { return last_registered_; }
 
@@ -74,6 +89,7 @@ class PoseFusion {
     int64_t t_ns = 0;
     SE3 T_odom_body = SE3::Identity();
     std::optional<Matrix6> rel_covariance;
+    int segment = 0;
     double q[4] = {0, 0, 0, 1};  // T_map_body rotation, Eigen order x y z w
     double p[3] = {0, 0, 0};
   };
@@ -81,7 +97,19 @@ class PoseFusion {
     size_t k = 0;
     SE3 T_map_body = SE3::Identity();
     Matrix6 covariance = Matrix6::Identity();
+    bool segment_first = false;  // the first registration of its segment: full-pose factor
   };
+  // One per odometry segment: its first keyframe, the start pose (initial guess or the
+  // constant-velocity prediction) with its covariance, and whether a registration anchors it.
+  struct Segment {
+    int id = 0;
+    size_t first_k = 0;
+    SE3 T_map_body_start = SE3::Identity();
+    Matrix6 covariance = Matrix6::Identity();
+    bool anchored = false;
+  };
+  size_t SegmentIndex(size_t k) const;  // index into segments_ of keyframe k's segment
+  SE3 PredictAcrossGap(int64_t t_ns, Matrix6* covariance) const;
 
   void SetState(KeyframeState* state, const SE3& T) const;
   void ComputeCovariances(ceres::Problem* problem, const std::vector<size_t>& which,
@@ -92,6 +120,7 @@ class PoseFusion {
   SE3 T_map_body0_ = SE3::Identity();
   Matrix6 initial_covariance_ = Matrix6::Identity();
   std::vector<KeyframeState> keyframes_;
+  std::vector<Segment> segments_;
   std::vector<Registration> registrations_;
   long last_registered_ = -1;
 };

@@ -16,7 +16,7 @@ class VioOdometrySource : public OdometrySource {
   ~VioOdometrySource() override;
   // Reads the stereo frame at t_ns, runs the VIO; nullopt until it is initialized or when
   // t_ns is not a stereo frame of the sequence. After a VIO reset the odometry frame
-  // changes: the next sample carries a huge covariance so fusion ignores that step.
+  // changes: the samples after it carry the next segment number (OdometrySample::segment).
   std::optional<OdometrySample> At(int64_t t_ns) override;
   int resets() const;
 
