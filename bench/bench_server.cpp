@@ -6,7 +6,7 @@
 //
 // Scene: a 300 m street of 5 m boxes (one box removed, one added), cameras 8 m high at
 // 1 m spacing looking at it, depth rendered analytically (tests/server/box_scene.hpp).
-// Usage: bench_server [--keyframes N] [--dir DIR]
+// Usage: bench_server [--keyframes N] [--dir DIR] [--threads T] [--chunk K] [--no-http]
 #include <sys/resource.h>
 
 #include <chrono>
@@ -70,14 +70,22 @@ mds::Json Meta(int64_t t_ns, const md::SE3& T) {
 
 int main(int argc, char** argv) {
   int keyframes = 500;
+  int threads = 2, chunk = mds::PipelineConfig().chunk_keyframes;
+  bool http_ingest = true;
   std::string dir = (std::filesystem::temp_directory_path() / "mapdelta_bench_server").string();
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--help")) {
-      std::printf("bench_server [--keyframes N] [--dir DIR]: server ingest and commit benchmark\n");
+      std::printf(
+          "bench_server [--keyframes N] [--dir DIR] [--threads T] [--chunk K] [--no-http]: server\n"
+          "ingest and commit benchmark (N keyframes at 800x450, default 500; T job threads,\n"
+          "default 2; K = pipeline.chunk_keyframes; --no-http skips the HTTP ingest run)\n");
       return 0;
     }
     if (!std::strcmp(argv[i], "--keyframes") && i + 1 < argc) keyframes = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--dir") && i + 1 < argc) dir = argv[++i];
+    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--chunk") && i + 1 < argc) chunk = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--no-http")) http_ingest = false;
     else {
       std::fprintf(stderr, "unknown argument %s (see --help)\n", argv[i]);
       return 2;
@@ -115,6 +123,8 @@ int main(int argc, char** argv) {
   mds::ServerConfig config;
   config.storage.tile_size_m = 50;
   config.http.port = 0;
+  config.pipeline.threads = threads;
+  config.pipeline.chunk_keyframes = chunk;
   auto make_service = [&](const std::string& name) {
     config.storage.database = dir + "/" + name + ".db";
     auto s = std::make_unique<mds::MapService>(config, mds::OpenSqliteStorage(config.storage.database));
@@ -126,34 +136,37 @@ int main(int argc, char** argv) {
   const mds::Json camera_json{{"width", camera.width}, {"height", camera.height}, {"fx", camera.fx},
                               {"fy", camera.fy},       {"cx", camera.cx},         {"cy", camera.cy}};
 
-  auto http_service = make_service("http");
-  const std::string token = "Bearer " + mds::CreateToken(http_service->storage(), "bench", mds::Role::kVehicle, mds::NowMs()).secret;
-  mds::HttpServer http(*http_service);
-  const int port = http.Bind("127.0.0.1", 0);
-  std::thread server([&] { http.Run(); });
-  httplib::Client client("127.0.0.1", port);
-  client.set_read_timeout(120, 0);
-  const httplib::Headers headers{{"Authorization", token}};
-  auto created = client.Post("/v1/sessions", headers, mds::Json{{"vehicle_id", "bench"}, {"camera", camera_json}}.dump(), "application/json");
-  if (!created || created->status != 201) {
-    std::fprintf(stderr, "session creation failed\n");
-    return 1;
-  }
-  const int64_t http_session = mds::Json::parse(created->body)["session_id"];
-  const auto h0 = Clock::now();
-  for (int k = 0; k < keyframes; ++k) {
-    httplib::MultipartFormDataItems items = {{"meta", Meta(1000000000LL * (k + 1), poses[k]).dump(), "", "application/json"},
-                                             {"depth", pngs[k], "d.png", "image/png"}};
-    auto r = client.Put("/v1/sessions/" + std::to_string(http_session) + "/keyframes/" + std::to_string(k), headers, items);
-    if (!r || r->status != 201) {
-      std::fprintf(stderr, "upload %d failed: %s\n", k, r ? r->body.c_str() : "no response");
+  double http_s = 0;
+  if (http_ingest) {
+    auto http_service = make_service("http");
+    const std::string token = "Bearer " + mds::CreateToken(http_service->storage(), "bench", mds::Role::kVehicle, mds::NowMs()).secret;
+    mds::HttpServer http(*http_service);
+    const int port = http.Bind("127.0.0.1", 0);
+    std::thread server([&] { http.Run(); });
+    httplib::Client client("127.0.0.1", port);
+    client.set_read_timeout(120, 0);
+    const httplib::Headers headers{{"Authorization", token}};
+    auto created = client.Post("/v1/sessions", headers, mds::Json{{"vehicle_id", "bench"}, {"camera", camera_json}}.dump(), "application/json");
+    if (!created || created->status != 201) {
+      std::fprintf(stderr, "session creation failed\n");
       return 1;
     }
-    if ((k + 1) % 100 == 0) std::fprintf(stderr, "  http ingest %d/%d\n", k + 1, keyframes);
+    const int64_t http_session = mds::Json::parse(created->body)["session_id"];
+    const auto h0 = Clock::now();
+    for (int k = 0; k < keyframes; ++k) {
+      httplib::MultipartFormDataItems items = {{"meta", Meta(1000000000LL * (k + 1), poses[k]).dump(), "", "application/json"},
+                                               {"depth", pngs[k], "d.png", "image/png"}};
+      auto r = client.Put("/v1/sessions/" + std::to_string(http_session) + "/keyframes/" + std::to_string(k), headers, items);
+      if (!r || r->status != 201) {
+        std::fprintf(stderr, "upload %d failed: %s\n", k, r ? r->body.c_str() : "no response");
+        return 1;
+      }
+      if ((k + 1) % 100 == 0) std::fprintf(stderr, "  http ingest %d/%d\n", k + 1, keyframes);
+    }
+    http_s = Seconds(h0, Clock::now());
+    http.Stop();
+    server.join();
   }
-  const double http_s = Seconds(h0, Clock::now());
-  http.Stop();
-  server.join();
 
   auto direct_service = make_service("direct");
   const int64_t direct_session = direct_service->CreateSession({{"vehicle_id", "bench"}, {"camera", camera_json}})["session_id"];
@@ -179,11 +192,15 @@ int main(int argc, char** argv) {
   }
   const mds::Json& result = job["result"];
 
-  std::printf("bench_server: %d keyframes %dx%d, %.1f MB PNG, 2 job threads, load average %.1f\n", keyframes,
-              camera.width, camera.height, png_bytes / 1e6, LoadAverage());
+  std::printf("bench_server: %d keyframes %dx%d, %.1f MB PNG, %d job threads, chunk %d, load average %.1f\n", keyframes,
+              camera.width, camera.height, png_bytes / 1e6, threads, chunk, LoadAverage());
   std::printf("| measure | mapdelta | baseline | ratio |\n|---|---|---|---|\n");
-  std::printf("| ingest, keyframes/s | %.1f (HTTP, 1 client) | %.1f (MapService, no HTTP) | %.2f |\n",
-              keyframes / http_s, keyframes / direct_s, direct_s / http_s);
+  if (http_ingest) {
+    std::printf("| ingest, keyframes/s | %.1f (HTTP, 1 client) | %.1f (MapService, no HTTP) | %.2f |\n",
+                keyframes / http_s, keyframes / direct_s, direct_s / http_s);
+  } else {
+    std::printf("| ingest, keyframes/s | - (--no-http) | %.1f (MapService, no HTTP) | - |\n", keyframes / direct_s);
+  }
   std::printf("| commit, s | %.2f | 300 (paper: up to 5 min per trajectory) | %.0fx faster |\n", commit_s, 300.0 / commit_s);
   std::printf("| commit of 700 keyframes (linear), s | %.2f | 10 (target) | %s |\n", commit_s * 700.0 / keyframes,
               commit_s * 700.0 / keyframes < 10 ? "meets" : "misses");

@@ -13,6 +13,10 @@ void JobContext::Progress(double fraction, const std::string& message) {
   storage.UpdateJobProgress(job.id, std::clamp(fraction, 0.0, 1.0), message);
 }
 
+void JobContext::CheckShutdown() {
+  if (shutting_down()) throw JobInterrupted(false);
+}
+
 void JobContext::CheckStop() {
   if (shutting_down()) throw JobInterrupted(false);
   if (storage.IsCancelRequested(job.id)) throw JobInterrupted(true);
@@ -149,7 +153,7 @@ Json RunRefreshJob(JobContext& ctx) {
     TileClassification c = ClassifyTile(ctx.storage, grid, t, version, cc,
                                         ctx.config.pipeline.octree_resolution_m, fresh_cache);
     c.record.updated_ms = NowMs();
-    ctx.storage.ApplyTileChanges(0, c.record);
+    ctx.storage.ApplyTileChanges(0, {c.record});
   }
   return result;
 }
@@ -172,7 +176,7 @@ Json RunReclassifyJob(JobContext& ctx) {
     TileClassification c = ClassifyTile(ctx.storage, grid, tiles[i], version, cc,
                                         ctx.config.pipeline.octree_resolution_m, cache);
     c.record.updated_ms = NowMs();
-    ctx.storage.ApplyTileChanges(ctx.job.id, c.record);
+    ctx.storage.ApplyTileChanges(ctx.job.id, {c.record});
     new_points += c.record.new_count;
     removed_points += c.record.removed_count;
     ++count;

@@ -5,85 +5,25 @@
 //      free_ray_bound_px), with the corrected poses
 //   4. per touched tile, one transaction: add the session's voxels (support) and membership
 //   5. reclassify touched tiles and their neighbours (paper Alg. 1 + 2 on the aggregate)
+// Steps 1 and 3 run in parallel over chunks of keyframes (commit_passes.cpp); step 1 reads the
+// clouds stored at upload, so each depth PNG is decoded once per commit. Steps 4 and 5 each
+// write in one transaction. A cancel request is honoured until step 4 starts; from then on
+// the job completes (a shutdown still pauses it, and it resumes at the next start).
 #include <chrono>
-#include <thread>
 
 #include "api_json.hpp"
 #include "blob_codec.hpp"
+#include "commit_passes.hpp"
 #include "jobs.hpp"
-#include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/log.hpp"
-#include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
 #include "mapdelta/common/registration/registration_gate.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
+#include "parallel_for.hpp"
 #include "tile_classifier.hpp"
 
 namespace mapdelta::server {
 namespace {
-
-struct DecodedKeyframe {
-  int64_t seq = 0;
-  SE3 T_map_cam;
-  DepthImage depth;
-};
-
-DecodedKeyframe Decode(const KeyframeRecord& k, double depth_scale) {
-  DecodedKeyframe d;
-  d.seq = k.seq;
-  d.T_map_cam = PoseFromJson(Json::parse(k.pose_json), "pose");
-  d.depth = DecodeDepthPng(k.depth_png, depth_scale);
-  return d;
-}
-
-// Runs fn(keyframe, worker) over all keyframes, decoding in `threads` workers, in batches so
-// that only a few depth images are in memory at once.
-void ForEachDecoded(JobContext& ctx, int64_t session_id, double depth_scale, int threads,
-                    int64_t total, double progress0, double progress1, const char* stage,
-                    const std::function<void(const DecodedKeyframe&, int)>& fn) {
-  std::vector<KeyframeRecord> batch;
-  int64_t done = 0;
-  auto flush = [&] {
-    std::vector<std::thread> pool;
-    std::exception_ptr error;
-    std::mutex error_mutex;
-    for (int w = 0; w < threads; ++w) {
-      pool.emplace_back([&, w] {
-        try {
-          for (size_t i = w; i < batch.size(); i += threads) fn(Decode(batch[i], depth_scale), w);
-        } catch (...) {
-          std::lock_guard lock(error_mutex);
-          error = std::current_exception();
-        }
-      });
-    }
-    for (auto& t : pool) t.join();
-    if (error) std::rethrow_exception(error);
-    done += static_cast<int64_t>(batch.size());
-    batch.clear();
-    ctx.CheckStop();
-    ctx.Progress(progress0 + (progress1 - progress0) * done / std::max<int64_t>(1, total),
-                 std::string(stage) + ": " + std::to_string(done) + "/" + std::to_string(total));
-  };
-  ctx.storage.ForEachKeyframe(session_id, [&](const KeyframeRecord& k) {
-    batch.push_back(k);
-    if (static_cast<int>(batch.size()) >= 8 * threads) flush();
-  });
-  if (!batch.empty()) flush();
-}
-
-PointCloud BackProject(const PinholeCamera& camera, const DecodedKeyframe& k, int stride,
-                       double max_depth_m) {
-  PointCloud points;
-  for (int v = 0; v < k.depth.height; v += stride) {
-    for (int u = 0; u < k.depth.width; u += stride) {
-      const float z = k.depth.at(u, v);
-      if (!(z > 0.f) || z >= max_depth_m) continue;
-      points.push_back((k.T_map_cam * camera.BackProject(u, v, z)).cast<float>());
-    }
-  }
-  return points;
-}
 
 VoxelKey KeyOf(const Point& p, double voxel_m) {
   return {static_cast<int32_t>(std::floor(p.x() / voxel_m)),
@@ -168,20 +108,10 @@ Json RunCommitJob(JobContext& ctx) {
   const PinholeCamera camera = CameraFromJson(Json::parse(session->camera_json), ctx.config.ingest);
   const PipelineConfig& pc = ctx.config.pipeline;
   const TileGrid grid(ctx.config.storage.tile_size_m);
-  const int threads = pc.threads;
 
-  // 1. Session cloud, per worker then merged.
-  std::vector<PointCloud> partial(threads);
-  ForEachDecoded(ctx, session_id, session->depth_scale, threads, session->keyframe_count, 0.0, 0.3,
-                 "session cloud", [&](const DecodedKeyframe& k, int w) {
-                   const PointCloud pts = VoxelDownsample(
-                       BackProject(camera, k, pc.pixel_stride, pc.max_depth_m),
-                       static_cast<float>(pc.session_voxel_m));
-                   partial[w].insert(partial[w].end(), pts.begin(), pts.end());
-                 });
-  PointCloud cloud;
-  for (const auto& p : partial) cloud.insert(cloud.end(), p.begin(), p.end());
-  cloud = VoxelDownsample(cloud, static_cast<float>(pc.session_voxel_m));
+  // 1. Session cloud (from the clouds stored at upload).
+  const SessionCloud session_cloud = BuildSessionCloud(ctx, *session, camera, 0.0, 0.2);
+  PointCloud cloud = session_cloud.cloud;
   const auto t1 = std::chrono::steady_clock::now();
 
   // 2. Align to the prior.
@@ -191,28 +121,10 @@ Json RunCommitJob(JobContext& ctx) {
   ctx.CheckStop();
   const auto t2 = std::chrono::steady_clock::now();
 
-  // 3. Observed octree with corrected poses, one octree per worker, merged.
-  ObservedAreaParams op;
-  op.resolution_m = pc.octree_resolution_m;
-  op.max_depth_m = pc.max_depth_m;
-  op.free_ray_m = pc.free_space_depth_m;
-  op.free_ray_bound_window_px = pc.free_ray_bound_px;
-  op.prefilter_voxel_m = pc.octree_resolution_m;
-  // Rays through every pixel_stride-th pixel: at 800x450 and a 0.8 m octree, neighbouring
-  // rays fall into the same voxels for most of their length (4x fewer rays at stride 2).
-  op.pixel_stride = pc.pixel_stride;
-  std::vector<ObservedArea> areas(threads, ObservedArea(pc.octree_resolution_m));
-  std::vector<Eigen::Vector3d> camera_centres;
-  std::mutex centres_mutex;
-  ForEachDecoded(ctx, session_id, session->depth_scale, threads, session->keyframe_count, 0.3, 0.7,
-                 "observed area", [&](const DecodedKeyframe& k, int w) {
-                   const SE3 T = reg.T_correction * k.T_map_cam;
-                   areas[w].InsertKeyframe(camera, T, k.depth, op);
-                   std::lock_guard lock(centres_mutex);
-                   camera_centres.push_back(T.translation());
-                 });
-  for (int w = 1; w < threads; ++w) areas[0].Merge(areas[w]);
-  const ObservedArea& observed = areas[0];
+  // 3. Observed octree with corrected poses.
+  SessionObserved session_observed = BuildSessionObserved(ctx, *session, camera, reg.T_correction, 0.2, 0.8);
+  const ObservedArea& observed = session_observed.area;
+  const std::vector<Eigen::Vector3d>& camera_centres = session_observed.camera_centres;
   const std::string observed_bytes = observed.SerializeBinary();
   ctx.storage.PutSessionObserved(session_id, Bytes(observed_bytes.begin(), observed_bytes.end()));
   const auto t3 = std::chrono::steady_clock::now();
@@ -237,53 +149,63 @@ Json RunCommitJob(JobContext& ctx) {
       }
     }
   }
-  const std::set<std::string> done = ctx.storage.JobTilesDone(ctx.job.id);
-  size_t index = 0;
-  for (const auto& [tile, points] : by_tile) {
-    ctx.CheckStop();
-    ++index;
-    if (done.count(tile.ToString())) continue;
-    TileStateRecord state;
-    state.tile = tile;
-    TileAggregate agg;
-    if (auto existing = ctx.storage.GetTileState(tile)) {
-      state.sessions = existing->sessions;
-      agg = DecodeAggregate(existing->aggregate);
+  // Last point at which a cancel request stops the job: from here on it writes.
+  ctx.CheckStop();
+  // All touched tiles in one transaction, so a crash leaves either none or all of them with
+  // the session; on resume, any tile in job_tiles means the whole step is done.
+  if (ctx.storage.JobTilesDone(ctx.job.id).empty()) {
+    std::vector<TileStateRecord> states;
+    for (const auto& [tile, points] : by_tile) {
+      TileStateRecord state;
+      state.tile = tile;
+      TileAggregate agg;
+      if (auto existing = ctx.storage.GetTileState(tile)) {
+        state.sessions = existing->sessions;
+        agg = DecodeAggregate(existing->aggregate);
+      }
+      if (!state.sessions.count(session_id)) {
+        AddToAggregate(&agg, points, session_id, pc.session_voxel_m);
+        state.sessions.insert(session_id);
+      }
+      state.aggregate = EncodeAggregate(agg);
+      states.push_back(std::move(state));
     }
-    if (!state.sessions.count(session_id)) {
-      AddToAggregate(&agg, points, session_id, pc.session_voxel_m);
-      state.sessions.insert(session_id);
-    }
-    state.aggregate = EncodeAggregate(agg);
-    ctx.storage.ApplyTileUpdate(ctx.job.id, state, NowMs());
-    ctx.metrics.job_tiles_applied += 1;
-    ctx.Progress(0.7 + 0.15 * index / by_tile.size(),
-                 "aggregated tile " + tile.ToString() + " (" + std::to_string(index) + "/" +
-                     std::to_string(by_tile.size()) + ")");
+    ctx.CheckShutdown();
+    ctx.storage.ApplyTileUpdates(ctx.job.id, states, NowMs());
+    ctx.metrics.job_tiles_applied += static_cast<int64_t>(states.size());
   }
+  ctx.Progress(0.85, "aggregated " + std::to_string(by_tile.size()) + " tiles");
   const auto t4 = std::chrono::steady_clock::now();
 
-  // 5. Reclassify touched tiles and neighbours whose margin saw the new evidence.
-  std::set<TileId> to_classify;
+  // 5. Reclassify touched tiles and neighbours whose margin saw the new evidence, in
+  //    parallel (tiles are independent), written in one transaction.
+  std::set<TileId> to_classify_set;
   for (const auto& [tile, points] : by_tile) {
     for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) to_classify.insert(TileId(tile.ix() + dx, tile.iy() + dy));
+      for (int dy = -1; dy <= 1; ++dy) to_classify_set.insert(TileId(tile.ix() + dx, tile.iy() + dy));
     }
+  }
+  std::vector<TileId> to_classify;
+  for (const TileId& t : to_classify_set) {
+    if (ctx.storage.GetTileState(t)) to_classify.push_back(t);
   }
   const ClassifyConfig cc = CurrentClassifyConfig(ctx.storage, ctx.config.classify);
   ObservedCache cache(ctx.storage);
-  int64_t new_points = 0, removed_points = 0, classified = 0;
-  for (const TileId& tile : to_classify) {
-    ctx.CheckStop();
-    if (!ctx.storage.GetTileState(tile)) continue;
-    TileClassification c = ClassifyTile(ctx.storage, grid, tile, prior_version.value_or(0), cc,
-                                        pc.octree_resolution_m, cache);
-    c.record.updated_ms = NowMs();
-    ctx.storage.ApplyTileChanges(0, c.record);
-    new_points += c.record.new_count;
-    removed_points += c.record.removed_count;
-    ++classified;
+  cache.Put(session_id, std::move(session_observed.area));
+  std::vector<TileChangesRecord> records(to_classify.size());
+  ParallelFor(static_cast<int64_t>(to_classify.size()), pc.threads, [&](int64_t i) {
+    ctx.CheckShutdown();
+    records[i] = ClassifyTile(ctx.storage, grid, to_classify[i], prior_version.value_or(0), cc,
+                              pc.octree_resolution_m, cache).record;
+    records[i].updated_ms = NowMs();
+  });
+  ctx.storage.ApplyTileChanges(0, records);
+  int64_t new_points = 0, removed_points = 0;
+  for (const auto& r : records) {
+    new_points += r.new_count;
+    removed_points += r.removed_count;
   }
+  const size_t classified = records.size();
   ctx.storage.FinishSession(session_id, "committed", reg.report.dump(), NowMs());
   const auto t5 = std::chrono::steady_clock::now();
   auto secs = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
@@ -292,6 +214,7 @@ Json RunCommitJob(JobContext& ctx) {
               {"session_points", cloud.size()},
               {"tiles_aggregated", by_tile.size()},
               {"tiles_classified", classified},
+              {"keyframe_clouds_recomputed", session_cloud.recomputed},
               {"new_points", new_points},
               {"removed_points", removed_points},
               {"prior_version", prior_version.value_or(0)},

@@ -82,6 +82,8 @@ void CollectRangeProblems(const ServerConfig& c, std::vector<std::string>* p) {
   Check(q.gicp_max_correspondence_m > 0 && q.gicp_max_fitness_m > 0 && q.gicp_max_correction_m > 0,
         "pipeline.gicp_*: must be > 0", p);
   Check(q.threads >= 1 && q.threads <= 64, "pipeline.threads: must be in [1, 64]", p);
+  Check(q.chunk_keyframes >= 1 && q.chunk_keyframes <= 100000,
+        "pipeline.chunk_keyframes: must be in [1, 100000]", p);
   Check(c.classify.th_ch_m > 0 && c.classify.th_ch_m <= 50, "classify.th_ch_m: must be in (0, 50]", p);
   Check(c.classify.min_voxel_support >= 1, "classify.min_voxel_support: must be >= 1", p);
 }
@@ -155,6 +157,7 @@ ServerConfig LoadServerConfig(const std::string& path) {
       s.Get("gicp_max_fitness_m", &q.gicp_max_fitness_m);
       s.Get("gicp_max_correction_m", &q.gicp_max_correction_m);
       s.Get("threads", &q.threads);
+      s.Get("chunk_keyframes", &q.chunk_keyframes);
     }
     {
       Section s = top.Sub("classify");
@@ -201,7 +204,8 @@ std::string DumpServerConfig(const ServerConfig& c) {
     << YAML::Key << "gicp_max_correspondence_m" << YAML::Value << q.gicp_max_correspondence_m
     << YAML::Key << "gicp_max_fitness_m" << YAML::Value << q.gicp_max_fitness_m
     << YAML::Key << "gicp_max_correction_m" << YAML::Value << q.gicp_max_correction_m
-    << YAML::Key << "threads" << YAML::Value << q.threads << YAML::EndMap;
+    << YAML::Key << "threads" << YAML::Value << q.threads
+    << YAML::Key << "chunk_keyframes" << YAML::Value << q.chunk_keyframes << YAML::EndMap;
   e << YAML::Key << "classify" << YAML::Value << YAML::BeginMap
     << YAML::Key << "th_ch_m" << YAML::Value << c.classify.th_ch_m
     << YAML::Key << "min_voxel_support" << YAML::Value << c.classify.min_voxel_support << YAML::EndMap;

@@ -29,7 +29,8 @@ struct JobContext {
   std::function<bool()> shutting_down;
 
   void Progress(double fraction, const std::string& message);
-  void CheckStop();  // throws JobInterrupted on shutdown or cancel request
+  void CheckStop();      // throws JobInterrupted on shutdown or cancel request
+  void CheckShutdown();  // throws JobInterrupted(false) on shutdown only (past the point of no cancel)
 };
 
 // Current classification parameters (settings table, else the config's).

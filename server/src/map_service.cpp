@@ -2,16 +2,48 @@
 // Queries and admin endpoints are in map_service_queries.cpp.
 #include "mapdelta/server/map_service.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include "api_json.hpp"
 #include "auth.hpp"
+#include "blob_codec.hpp"
 #include "jobs.hpp"
+#include "keyframe_cloud.hpp"
 #include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
 
 namespace mapdelta::server {
+
+namespace {
+
+// Reads a PNG's IHDR (the first chunk, by the PNG spec) and checks it against the session
+// camera before anything is decoded: a small upload may claim a huge image (a decompression
+// bomb); the decoder would allocate it first and complain later.
+void CheckPngHeader(const Bytes& png, const PinholeCamera& camera) {
+  static constexpr uint8_t kMagic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  static constexpr uint8_t kIhdr[8] = {0, 0, 0, 13, 'I', 'H', 'D', 'R'};
+  if (png.size() < 33 || !std::equal(kMagic, kMagic + 8, png.begin()) ||
+      !std::equal(kIhdr, kIhdr + 8, png.begin() + 8)) {
+    throw ApiError(ApiCode::kInvalidImage, "part 'depth': not a PNG (bad signature or no IHDR chunk)");
+  }
+  auto be32 = [&](size_t at) {
+    return (uint32_t{png[at]} << 24) | (uint32_t{png[at + 1]} << 16) | (uint32_t{png[at + 2]} << 8) | png[at + 3];
+  };
+  const uint32_t width = be32(16), height = be32(20);
+  if (width != static_cast<uint32_t>(camera.width) || height != static_cast<uint32_t>(camera.height)) {
+    throw ApiError(ApiCode::kImageSizeMismatch,
+                   "part 'depth': image is " + std::to_string(width) + "x" + std::to_string(height) +
+                       ", session camera is " + std::to_string(camera.width) + "x" + std::to_string(camera.height));
+  }
+  if (png[24] != 16 || png[25] != 0) {
+    throw ApiError(ApiCode::kInvalidImage, "part 'depth': must be a 16-bit grayscale PNG (bit depth " +
+                                               std::to_string(png[24]) + ", colour type " + std::to_string(png[25]) + ")");
+  }
+}
+
+}  // namespace
 
 int64_t NowMs() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(
@@ -80,6 +112,7 @@ Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
     std::optional<Matrix6d> cov;
     if (meta.contains("covariance")) cov = CovarianceFromJson(meta["covariance"], "covariance");
     const PinholeCamera camera = CameraFromJson(Json::parse(session->camera_json), config_.ingest);
+    CheckPngHeader(depth_png, camera);
     DepthImage depth;
     try {
       depth = DecodeDepthPng(std::vector<unsigned char>(depth_png.begin(), depth_png.end()),
@@ -103,6 +136,9 @@ Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
       k.covariance_json = c.dump();
     }
     k.depth_png = depth_png;
+    // The commit's first pass reads this instead of decoding the PNG a second time.
+    k.cloud = EncodePoints(KeyframeCloud(camera, T, depth, config_.pipeline));
+    k.cloud_params = KeyframeCloudParams(config_.pipeline);
     // Content identity of a retry: the canonical meta plus the PNG bytes.
     k.content_sha = Sha256Hex(std::to_string(t_ns) + "|" + k.pose_json + "|" +
                               k.covariance_json.value_or("null") + "|" +

@@ -14,6 +14,7 @@
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/server/map_service.hpp"
+#include "observed_crop.hpp"
 #include "tile_classifier.hpp"
 
 namespace mapdelta::server {
@@ -278,10 +279,11 @@ FilePayload MapService::GetObservedTile(const std::string& tile_text) {
   if (!state || state->sessions.empty()) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no observations");
   ObservedCache cache(*storage_);
   const ObservedArea& merged = cache.Merged(state->sessions, config_.pipeline.octree_resolution_m);
-  TempFile f(".bt");
-  merged.Save(f.path());
+  // The merged octree covers the sessions' whole drives: cut it to this tile.
+  const AxisAlignedBox b = TileGrid(config_.storage.tile_size_m).Bounds(tile);
+  const std::string bt = CropOctreeXY(merged.SerializeBinary(), b.min.x(), b.min.y(), b.max.x(), b.max.y());
   FilePayload p;
-  p.bytes = f.Read();
+  p.bytes.assign(bt.begin(), bt.end());
   p.content_type = "application/octet-stream";
   p.prior_version = storage_->LatestPriorVersion().value_or(0);
   return p;

@@ -299,26 +299,31 @@ PutKeyframeOutcome SqliteStorage::PutKeyframe(int64_t session_id, const Keyframe
   }
   sql::Stmt s(db_,
               "INSERT INTO keyframes (session_id, seq, t_ns, pose_json, covariance, depth_png, "
-              "content_sha) VALUES (?,?,?,?,?,?,?)");
+              "content_sha, cloud, cloud_params) VALUES (?,?,?,?,?,?,?,?,?)");
   s.Bind(1, session_id).Bind(2, k.seq).Bind(3, k.t_ns).Bind(4, k.pose_json)
       .Bind(5, k.covariance_json).Bind(6, k.depth_png).Bind(7, k.content_sha);
+  if (k.cloud.empty()) s.BindNull(8).BindNull(9);
+  else s.Bind(8, k.cloud).Bind(9, k.cloud_params);
   s.Run();
   tx.Commit();  // synchronous=FULL: on disk before we acknowledge
   return PutKeyframeOutcome::kStored;
 }
 
-void SqliteStorage::ForEachKeyframe(int64_t session_id,
+void SqliteStorage::ForEachKeyframe(int64_t session_id, int64_t first_seq, int64_t end_seq,
+                                    bool with_depth,
                                     const std::function<void(const KeyframeRecord&)>& fn) {
   // Read one keyframe per lock so that uploads of other sessions are not blocked for long.
-  int64_t next_seq = 0;
-  while (true) {
+  const std::string sql = std::string("SELECT seq, t_ns, pose_json, covariance, ") +
+                          (with_depth ? "depth_png" : "NULL") +
+                          ", content_sha, cloud, cloud_params FROM keyframes "
+                          "WHERE session_id = ? AND seq >= ? AND seq < ? ORDER BY seq LIMIT 1";
+  int64_t next_seq = first_seq;
+  while (next_seq < end_seq) {
     KeyframeRecord k;
     {
       std::lock_guard lock(mutex_);
-      sql::Stmt s(db_,
-                  "SELECT seq, t_ns, pose_json, covariance, depth_png, content_sha FROM keyframes "
-                  "WHERE session_id = ? AND seq >= ? ORDER BY seq LIMIT 1");
-      s.Bind(1, session_id).Bind(2, next_seq);
+      sql::Stmt s(db_, sql);
+      s.Bind(1, session_id).Bind(2, next_seq).Bind(3, end_seq);
       if (!s.Step()) return;
       k.seq = s.Int(0);
       k.t_ns = s.Int(1);
@@ -326,6 +331,8 @@ void SqliteStorage::ForEachKeyframe(int64_t session_id,
       k.covariance_json = s.OptText(3);
       k.depth_png = s.Blob(4);
       k.content_sha = s.Text(5);
+      k.cloud = s.Blob(6);
+      k.cloud_params = s.OptText(7).value_or("");
     }
     next_seq = k.seq + 1;
     fn(k);

@@ -27,7 +27,7 @@ class SqliteStorage final : public Storage {
   int64_t CreateSession(const SessionRecord& session) override;
   std::optional<SessionRecord> GetSession(int64_t id) override;
   PutKeyframeOutcome PutKeyframe(int64_t session_id, const KeyframeRecord& keyframe) override;
-  void ForEachKeyframe(int64_t session_id,
+  void ForEachKeyframe(int64_t session_id, int64_t first_seq, int64_t end_seq, bool with_depth,
                        const std::function<void(const KeyframeRecord&)>& fn) override;
   std::optional<int64_t> CommitSession(int64_t session_id, const std::string& params_json,
                                        int64_t now_ms) override;
@@ -52,8 +52,9 @@ class SqliteStorage final : public Storage {
 
   std::optional<TileStateRecord> GetTileState(const TileId& tile) override;
   std::vector<TileId> ListAggregatedTiles(const std::optional<Rect>& rect) override;
-  void ApplyTileUpdate(int64_t job_id, const TileStateRecord& state, int64_t now_ms) override;
-  void ApplyTileChanges(int64_t job_id, const TileChangesRecord& changes) override;
+  void ApplyTileUpdates(int64_t job_id, const std::vector<TileStateRecord>& states,
+                        int64_t now_ms) override;
+  void ApplyTileChanges(int64_t job_id, const std::vector<TileChangesRecord>& changes) override;
   std::optional<TileChangesRecord> GetTileChanges(const TileId& tile) override;
   std::vector<TileChangesRecord> ListChangedTiles(const Rect& rect, double min_confidence,
                                                   int64_t limit, int64_t offset,

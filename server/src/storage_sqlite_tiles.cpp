@@ -205,31 +205,36 @@ void SqliteStorage::MarkJobTileLocked(int64_t job_id, const TileId& tile) {
   s.Bind(1, job_id).Bind(2, tile.ToString()).Run();
 }
 
-void SqliteStorage::ApplyTileUpdate(int64_t job_id, const TileStateRecord& st, int64_t now_ms) {
+void SqliteStorage::ApplyTileUpdates(int64_t job_id, const std::vector<TileStateRecord>& states,
+                                     int64_t now_ms) {
   std::lock_guard lock(mutex_);
   sql::Transaction tx(db_);
-  const std::string tile = st.tile.ToString();
-  sql::Stmt s(db_,
-              "INSERT OR REPLACE INTO tile_state (tile, ix, iy, aggregate, updated_ms) "
-              "VALUES (?,?,?,?,?)");
-  s.Bind(1, tile).Bind(2, int64_t{st.tile.ix()}).Bind(3, int64_t{st.tile.iy()})
-      .Bind(4, st.aggregate).Bind(5, now_ms).Run();
-  sql::Stmt d(db_, "DELETE FROM tile_sessions WHERE tile = ?");
-  d.Bind(1, tile).Run();
-  sql::Stmt i(db_, "INSERT INTO tile_sessions (tile, session_id) VALUES (?,?)");
-  for (int64_t session : st.sessions) {
-    i.Reset();
-    i.Bind(1, tile).Bind(2, session).Run();
+  for (const TileStateRecord& st : states) {
+    const std::string tile = st.tile.ToString();
+    sql::Stmt s(db_,
+                "INSERT OR REPLACE INTO tile_state (tile, ix, iy, aggregate, updated_ms) "
+                "VALUES (?,?,?,?,?)");
+    s.Bind(1, tile).Bind(2, int64_t{st.tile.ix()}).Bind(3, int64_t{st.tile.iy()})
+        .Bind(4, st.aggregate).Bind(5, now_ms).Run();
+    sql::Stmt d(db_, "DELETE FROM tile_sessions WHERE tile = ?");
+    d.Bind(1, tile).Run();
+    sql::Stmt i(db_, "INSERT INTO tile_sessions (tile, session_id) VALUES (?,?)");
+    for (int64_t session : st.sessions) {
+      i.Reset();
+      i.Bind(1, tile).Bind(2, session).Run();
+    }
+    MarkJobTileLocked(job_id, st.tile);
   }
-  MarkJobTileLocked(job_id, st.tile);
   tx.Commit();
 }
 
-void SqliteStorage::ApplyTileChanges(int64_t job_id, const TileChangesRecord& changes) {
+void SqliteStorage::ApplyTileChanges(int64_t job_id, const std::vector<TileChangesRecord>& changes) {
   std::lock_guard lock(mutex_);
   sql::Transaction tx(db_);
-  WriteChangesLocked(changes);
-  if (job_id > 0) MarkJobTileLocked(job_id, changes.tile);
+  for (const TileChangesRecord& c : changes) {
+    WriteChangesLocked(c);
+    if (job_id > 0) MarkJobTileLocked(job_id, c.tile);
+  }
   tx.Commit();
 }
 

@@ -8,7 +8,17 @@
 
 namespace mapdelta::server {
 
+void ObservedCache::Put(int64_t session_id, ObservedArea area) {
+  std::lock_guard lock(mutex_);
+  sessions_[session_id] = std::make_unique<ObservedArea>(std::move(area));
+}
+
 const ObservedArea* ObservedCache::Session(int64_t session_id) {
+  std::lock_guard lock(mutex_);
+  return SessionLocked(session_id);
+}
+
+const ObservedArea* ObservedCache::SessionLocked(int64_t session_id) {
   auto it = sessions_.find(session_id);
   if (it == sessions_.end()) {
     std::unique_ptr<ObservedArea> area;
@@ -22,11 +32,16 @@ const ObservedArea* ObservedCache::Session(int64_t session_id) {
 }
 
 const ObservedArea& ObservedCache::Merged(const std::set<int64_t>& sessions, double resolution_m) {
+  // Held while merging: a second tile with the same sessions waits for this merge, not redoes it.
+  std::lock_guard lock(mutex_);
   auto it = merged_.find(sessions);
   if (it != merged_.end()) return *it->second;
+  if (sessions.size() == 1) {  // nothing to merge: the session's own octree (no copy)
+    if (const ObservedArea* area = SessionLocked(*sessions.begin())) return *area;
+  }
   auto merged = std::make_unique<ObservedArea>(resolution_m);
   for (int64_t s : sessions) {
-    if (const ObservedArea* area = Session(s)) merged->Merge(*area);
+    if (const ObservedArea* area = SessionLocked(s)) merged->Merge(*area);
   }
   return *merged_.emplace(sessions, std::move(merged)).first->second;
 }

@@ -11,6 +11,7 @@
 // gives 0.67, two agreeing 0.75, four agreeing 0.83; one of two agreeing 0.5.
 #include <map>
 #include <memory>
+#include <mutex>
 #include <set>
 
 #include "blob_codec.hpp"
@@ -21,14 +22,20 @@
 
 namespace mapdelta::server {
 
-// Per-job cache of decoded session octrees and of merges over session sets.
+// Per-job cache of decoded session octrees and of merges over session sets. Thread-safe (jobs
+// classify tiles in parallel); returned references stay valid for the cache's lifetime.
 class ObservedCache {
  public:
   explicit ObservedCache(Storage& storage) : storage_(storage) {}
   const ObservedArea* Session(int64_t session_id);  // nullptr if the session has none
   const ObservedArea& Merged(const std::set<int64_t>& sessions, double resolution_m);
+  // Seeds the cache with an octree the job already has (saves decoding the stored copy).
+  void Put(int64_t session_id, ObservedArea area);
 
  private:
+  const ObservedArea* SessionLocked(int64_t session_id);
+
+  std::recursive_mutex mutex_;
   Storage& storage_;
   std::map<int64_t, std::unique_ptr<ObservedArea>> sessions_;
   std::map<std::set<int64_t>, std::unique_ptr<ObservedArea>> merged_;

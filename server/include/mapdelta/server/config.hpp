@@ -52,6 +52,10 @@ struct PipelineConfig {
   double gicp_max_fitness_m = 1.0;
   double gicp_max_correction_m = 4.0;
   int threads = 2;                    // worker threads inside one job
+  // Keyframes per unit of commit work: each unit builds its own observed octree, units are
+  // merged in keyframe order, so the result does not depend on threads or scheduling. Smaller
+  // units keep OctoMap's per-keyframe inner-node update cheap (it walks the whole tree).
+  int chunk_keyframes = 32;
 };
 
 // Classification (paper Alg. 1 and 2) on each tile's aggregate; changeable by a reclassify job.

@@ -58,6 +58,10 @@ struct KeyframeRecord {
   std::optional<std::string> covariance_json;
   Bytes depth_png;
   std::string content_sha;
+  // Derived at upload (empty = not computed): the keyframe's back-projected, voxel-filtered
+  // cloud (EncodePoints) and the pipeline parameters it was computed with.
+  Bytes cloud;
+  std::string cloud_params;
 };
 
 enum class PutKeyframeOutcome { kStored, kIdentical, kConflict, kOutOfOrder, kTimeNotIncreasing,
@@ -126,8 +130,11 @@ class Storage {
   virtual int64_t CreateSession(const SessionRecord& session) = 0;
   virtual std::optional<SessionRecord> GetSession(int64_t id) = 0;
   virtual PutKeyframeOutcome PutKeyframe(int64_t session_id, const KeyframeRecord& keyframe) = 0;
-  // Keyframes in seq order, one at a time (a session's depth images may not fit in memory).
-  virtual void ForEachKeyframe(int64_t session_id,
+  // Keyframes with first_seq <= seq < end_seq in seq order, one at a time (a session's depth
+  // images may not fit in memory). with_depth = false leaves depth_png empty (a commit's first
+  // pass reads only the stored clouds). Safe to call from several threads at once.
+  virtual void ForEachKeyframe(int64_t session_id, int64_t first_seq, int64_t end_seq,
+                               bool with_depth,
                                const std::function<void(const KeyframeRecord&)>& fn) = 0;
   // Moves an open session to 'committing' and queues its commit job, atomically.
   // Returns the job id, or nullopt if the session is not open.
@@ -160,10 +167,12 @@ class Storage {
   // --- per-tile aggregation and classification
   virtual std::optional<TileStateRecord> GetTileState(const TileId& tile) = 0;
   virtual std::vector<TileId> ListAggregatedTiles(const std::optional<Rect>& rect) = 0;
-  // One transaction: tile state (aggregate + its session set) and job_tiles(job, tile).
-  virtual void ApplyTileUpdate(int64_t job_id, const TileStateRecord& state, int64_t now_ms) = 0;
-  // One transaction: a tile's classification, plus job_tiles(job, tile) if job_id > 0.
-  virtual void ApplyTileChanges(int64_t job_id, const TileChangesRecord& changes) = 0;
+  // One transaction for all: each tile's state (aggregate + its session set) and
+  // job_tiles(job, tile) (a commit applies its whole session at once: never half a session).
+  virtual void ApplyTileUpdates(int64_t job_id, const std::vector<TileStateRecord>& states,
+                                int64_t now_ms) = 0;
+  // One transaction for all: the tiles' classifications, plus job_tiles(job, tile) if job_id > 0.
+  virtual void ApplyTileChanges(int64_t job_id, const std::vector<TileChangesRecord>& changes) = 0;
   virtual std::optional<TileChangesRecord> GetTileChanges(const TileId& tile) = 0;
   // Tiles with max_confidence >= min_confidence and at least one change; total count too.
   virtual std::vector<TileChangesRecord> ListChangedTiles(const Rect& rect, double min_confidence,
