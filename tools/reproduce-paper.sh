@@ -145,6 +145,7 @@ if [ "$report_only" = 0 ]; then
         ds=$(ensure_dataset "$preset" "$noise" "$k" "$seq")
         run_client "$ds" "$seq" "$run"
         evaluate_ate "$ds" "$seq" "$run"
+        evaluate_pre_reset "$ds" "$seq" "$run"
         say "  ATE VIO $(jq -r '.rmse' "$run/ate_vio.json") m, fused $(jq -r '.rmse' "$run/ate_fused.json") m; change detection sweep"
         for b in "${bound_arr[@]}"; do
           for t in "${thf_arr[@]}"; do

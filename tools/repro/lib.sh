@@ -82,6 +82,30 @@ evaluate_ate() {
   done
 }
 
+# evaluate_pre_reset DATASET SEQ RUN_DIR: VIO resets (client log) and, if any, the ATE of both
+# trajectories up to the first reset (what the VIO delivered before it lost track).
+evaluate_pre_reset() {
+  local ds=$1 seq=$2 run=$3
+  local gt=$ds/sequences/$seq/mav0/state_groundtruth_estimate0/data.csv
+  local resets first
+  resets=$(grep -c 'VIO reset at t_ns' "$run/client.log" || true)
+  first=$(sed -n 's/.*VIO reset at t_ns \([0-9]*\).*/\1/p' "$run/client.log" | head -1)
+  local vio=null fused=null
+  if [ -n "$first" ]; then
+    for which in vio fused; do
+      awk -v t="$first" '/^#/ || $1 * 1e9 < t - 1e3' "$run/client/$which.txt" >"$run/${which}_pre_reset.txt"
+      if [ "$(grep -vc '^#' "$run/${which}_pre_reset.txt")" -ge 3 ] &&
+        "$bin_eval" ate "$gt" "$run/${which}_pre_reset.txt" --json "$run/ate_${which}_pre_reset.json" >/dev/null 2>>"$log"; then
+        [ "$which" = vio ] && vio=$(jq -c '{rmse, std, max, pairs}' "$run/ate_vio_pre_reset.json")
+        [ "$which" = fused ] && fused=$(jq -c '{rmse, std, max, pairs}' "$run/ate_fused_pre_reset.json")
+      fi
+    done
+  fi
+  jq -n --argjson n "$resets" --arg first "${first:-}" --argjson v "$vio" --argjson f "$fused" \
+    '{vio_resets: $n, first_reset_s: (if $first == "" then null else (($first | tonumber) / 1e9 - 1.6e9) end),
+      ate_vio_pre_reset: $v, ate_fused_pre_reset: $f}' >"$run/resets.json"
+}
+
 # detect_and_eval DATASET SEQ KEYFRAMES OUT_DIR TH_F BOUND: detection + paper metrics; the
 # detector's wall time goes to OUT_DIR/time_s.
 detect_and_eval() {
@@ -114,11 +138,11 @@ run_json() {
   done
   local vio="null"
   [ -f "$run/detect-vio/changes.json" ] && vio=$(jq -c '{paper, reference_variant}' "$run/detect-vio/changes.json")
-  jq -n --arg seq "$seq" --arg noise "$noise" --argjson k "$k" \
+  jq -n --arg seq "$seq" --arg noise "$noise" --argjson k "$k" --slurpfile resets "$run/resets.json" \
     --slurpfile av "$run/ate_vio.json" --slurpfile af "$run/ate_fused.json" \
     --argjson timing "$(timing_json "$run/client")" --argjson sweep "$sweep" --argjson vio "$vio" \
     --arg vio_params "$vio_point" \
     '{sequence: $seq, noise: $noise, trial: $k,
       ate_vio: ($av[0] | {rmse, std, max, mean, pairs}), ate_fused: ($af[0] | {rmse, std, max, mean, pairs}),
-      client_timing: $timing, sweep: $sweep, vio_pose_changes: $vio, vio_pose_params: $vio_params}'
+      client_timing: $timing, sweep: $sweep, vio_pose_changes: $vio, vio_pose_params: $vio_params} + $resets[0]'
 }

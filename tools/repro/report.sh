@@ -29,6 +29,18 @@ J() { jq -r "$@" "$res"; }
     while IFS=$'\t' read -r s n k a b c d e f; do
       echo "| $s | $n | $k | $(f3 "$a") | $(f3 "$b") | $(f3 "$c") | $(f3 "$d") | $(f3 "$e") | $(f3 "$f") |"
     done
+  if J '.runs | any((.vio_resets // 0) > 0)' | grep -q true; then
+    echo
+    echo "The VIO lost track and reset in some runs; the ATE above then spans segments the client had to re-anchor. Up to the first reset:"
+    echo
+    echo "| sequence | noise | trial | VIO resets | first reset (s) | VIO RMSE before | fused RMSE before | keyframes before |"
+    echo "|---|---|---|---|---|---|---|---|"
+    J '.runs | sort_by(.sequence, .noise, .trial) | .[] | [.sequence, .noise, .trial, (.vio_resets // 0), (.first_reset_s // "–"),
+        (.ate_vio_pre_reset.rmse // "null"), (.ate_fused_pre_reset.rmse // "null"), (.ate_vio_pre_reset.pairs // "–")] | @tsv' |
+      while IFS=$'\t' read -r s n k r t a b p; do
+        echo "| $s | $n | $k | $r | $t | $(f3 "$a") | $(f3 "$b") | $p |"
+      done
+  fi
   if J '.runs | any(.trial > 1)' | grep -q true; then
     echo
     echo "Per trial (RMSE VIO → fused):"
