@@ -53,9 +53,12 @@ mapdelta::vio::SequenceRunResult RunRectified(const mapdelta::EurocSequence& seq
 namespace fs = std::filesystem;
 using namespace mapdelta;
 
-// One 6 s sequence (with depth0 for the stereo check), generated once for both tests.
-const EurocSequence& Sequence() {
-  static const EurocSequence seq = [] {
+namespace {
+
+// One 6 s sequence (with depth0 for the stereo check). A single TEST: ctest runs every test
+// case in its own process, which would render the sequence twice.
+EurocSequence Generate() {
+  return [] {
     sim::SimConfig c = sim::PresetConfig("euroc");
     // 6 s (the preset flies 12 s): rendering 752x480 pairs is most of this test's time. Seed
     // 2's route turns 79 degrees (up to 1 rad/s) in its 30 m; seed 1's first 36 m are straight.
@@ -69,41 +72,13 @@ const EurocSequence& Sequence() {
     sim::GenerateSequence(c, sim::BuildScenes(c), "S1_01", dir.string(), nullptr);
     return ReadEurocSequence((dir / "sequences" / "S1_01").string());
   }();
-  return seq;
-}
-
-TEST(VioEurocRig, SimulatedMh01SensorsSequence) {
-  const EurocSequence& seq = Sequence();
-  // The loader sees EuRoC's calibration, not a rectified rig.
-  ASSERT_EQ(seq.cam1.distortion.size(), 4u);
-  EXPECT_DOUBLE_EQ(seq.cam0.distortion[0], -0.28340811);
-  EXPECT_DOUBLE_EQ(seq.cam1.intrinsics.cx, 379.999);
-  EXPECT_NEAR(seq.cam1.T_body_cam.translation().y(), 0.0453689425, 1e-9);
-  EXPECT_DOUBLE_EQ(seq.imu.rate_hz, 200.0);
-  EXPECT_DOUBLE_EQ(seq.imu.noise.gyroscope_noise_density, 1.6968e-4);
-  EXPECT_THROW(MakeRectifiedStereoRig(seq), Error);
-  // EuRoC's IMU axes: x up, so a level vehicle measures +g on x.
-  EXPECT_NEAR(seq.imu_samples.front().accel.x(), 9.81, 0.2);
-
-  const vio::SequenceRunResult result = RunRectified(seq, vio::VioConfig{});
-  EXPECT_EQ(result.resets, 0);
-  // Initialization: init_frames (10) over at least init_min_span_s (0.9 s) = 19 frames at 20 Hz.
-  EXPECT_GE(result.initialized, result.processed - 22);
-  const AteResult ate = ComputeAte(seq.groundtruth, result.frames);
-  std::printf("euroc rig: %d frames, %d initialized, %d resets, ATE rmse %.3f m max %.3f m over %zu poses\n",
-              result.processed, result.initialized, result.resets, ate.rmse, ate.max, ate.pairs);
-  // Measured 0.086 m (max 0.13 m) over the 30 m; 0.25 m (0.8 % of the path) leaves room for
-  // noise-stream and load-dependent solver changes (the window solve is time-capped). Without
-  // rectification (raw distorted pairs) the odometry never initializes on this sequence.
-  EXPECT_LT(ate.rmse, 0.25) << "ATE rmse over " << ate.pairs << " poses";
 }
 
 // The 11 cm baseline gives a quarter of the disparity of the 1 m simulator rig at equal depth
 // (EuRoC: 48 px at 1 m, 2.4 px at 20 m): the front end's stereo matches on the rectified pairs
 // must still agree with the ground-truth depth (depth0 of the distorted cam0, looked up at the
 // pixel the rectifier samples) to a fraction of a pixel.
-TEST(VioEurocRig, StereoMatchesAgreeWithGroundTruthDepth) {
-  const EurocSequence& seq = Sequence();
+void CheckStereoMatches(const EurocSequence& seq) {
   ASSERT_EQ(seq.depth0_images.size(), seq.cam0_images.size());
   const vio::StereoRectifier rect(seq.cam0, seq.cam1);
   const sim::RadTan lens{seq.cam0.distortion[0], seq.cam0.distortion[1], seq.cam0.distortion[2],
@@ -149,3 +124,33 @@ TEST(VioEurocRig, StereoMatchesAgreeWithGroundTruthDepth) {
   EXPECT_LT(median, 0.15);
   EXPECT_LT(p90, 0.8);
 }
+
+}  // namespace
+
+TEST(VioEurocRig, SimulatedMh01SensorsSequence) {
+  const EurocSequence seq = Generate();
+  // The loader sees EuRoC's calibration, not a rectified rig.
+  ASSERT_EQ(seq.cam1.distortion.size(), 4u);
+  EXPECT_DOUBLE_EQ(seq.cam0.distortion[0], -0.28340811);
+  EXPECT_DOUBLE_EQ(seq.cam1.intrinsics.cx, 379.999);
+  EXPECT_NEAR(seq.cam1.T_body_cam.translation().y(), 0.0453689425, 1e-9);
+  EXPECT_DOUBLE_EQ(seq.imu.rate_hz, 200.0);
+  EXPECT_DOUBLE_EQ(seq.imu.noise.gyroscope_noise_density, 1.6968e-4);
+  EXPECT_THROW(MakeRectifiedStereoRig(seq), Error);
+  // EuRoC's IMU axes: x up, so a level vehicle measures +g on x.
+  EXPECT_NEAR(seq.imu_samples.front().accel.x(), 9.81, 0.2);
+  CheckStereoMatches(seq);
+
+  const vio::SequenceRunResult result = RunRectified(seq, vio::VioConfig{});
+  EXPECT_EQ(result.resets, 0);
+  // Initialization: init_frames (10) over at least init_min_span_s (0.9 s) = 19 frames at 20 Hz.
+  EXPECT_GE(result.initialized, result.processed - 22);
+  const AteResult ate = ComputeAte(seq.groundtruth, result.frames);
+  std::printf("euroc rig: %d frames, %d initialized, %d resets, ATE rmse %.3f m max %.3f m over %zu poses\n",
+              result.processed, result.initialized, result.resets, ate.rmse, ate.max, ate.pairs);
+  // Measured 0.086 m (max 0.13 m) over the 30 m; 0.25 m (0.8 % of the path) leaves room for
+  // noise-stream and load-dependent solver changes (the window solve is time-capped). Without
+  // rectification (raw distorted pairs) the odometry never initializes on this sequence.
+  EXPECT_LT(ate.rmse, 0.25) << "ATE rmse over " << ate.pairs << " poses";
+}
+
