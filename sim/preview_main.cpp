@@ -11,6 +11,7 @@
 #include "mapdelta/sim/options.hpp"
 #include "mapdelta/sim/preview.hpp"
 #include "mapdelta/sim/raycaster.hpp"
+#include "mapdelta/sim/sensor_rig.hpp"
 
 int main(int argc, char** argv) {
   using namespace mapdelta;
@@ -51,15 +52,20 @@ int main(int argc, char** argv) {
       }
       WriteTopView(cli.out_dir + "/top_" + cs->scene.name + ".png", *cs, scenes.original, plans, 1000.0 / c.extent_x);
     }
-    PinholeCamera cam;
-    cam.width = c.width; cam.height = c.height; cam.fx = c.fx; cam.fy = c.fy; cam.cx = c.cx; cam.cy = c.cy;
+    // cam0 of the configured rig (a distorted lens renders through its per-pixel rays).
+    const SensorRig rig = MakeSensorRig(c);
+    const PinholeCamera& cam = rig.cam[0].K;
+    const std::vector<Eigen::Vector3f> rays =
+        rig.cam[0].distortion.IsZero() ? std::vector<Eigen::Vector3f>{} : PixelRays(rig.cam[0]);
     for (const std::string& name : c.sequences) {
       const SequencePlan plan = PlanSequence(c, scenes, name);
       const Scene scene = RenderScene(plan);
       const EmbreeCaster caster(scene);
       for (double t : times) {
-        const SE3 T = plan.trajectory.Evaluate(std::min(t, plan.duration_s)).T_map_body * BodyToCam0();
-        const RenderedView view = RenderView(scene, caster, cam, T, {c.shadows, 3});
+        const SE3 T = plan.trajectory.Evaluate(std::min(t, plan.duration_s)).T_map_body * rig.T_vehicle_body *
+                      rig.cam[0].T_body_cam;
+        RenderedView view;
+        RenderViewInto(scene, caster, cam, T, {c.shadows, 3}, &view, rays.empty() ? nullptr : &rays);
         char stem[256];
         std::snprintf(stem, sizeof(stem), "%s/%s_%05.1f", cli.out_dir.c_str(), name.c_str(), t);
         WriteGreyPng(std::string(stem) + "_left.png", cam.width, cam.height, ToGrey8(view, 0.0, 0));
