@@ -76,16 +76,54 @@ struct PointEq {
 
 }  // namespace
 
+namespace {
+
+// Step 3 of a refresh: neighbours of refreshed tiles saw the old prior in their margins.
+// Idempotent, so a resumed job simply runs it again. No cancel from here: the version exists.
+void ReclassifyAround(JobContext& ctx, const TileGrid& grid, const std::vector<TileId>& refreshed,
+                      int64_t version, const ClassifyConfig& cc) {
+  std::set<TileId> around;
+  for (const TileId& t : refreshed) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) around.insert(TileId(t.ix() + dx, t.iy() + dy));
+    }
+  }
+  ObservedCache cache(ctx.storage);
+  std::vector<TileChangesRecord> records;
+  for (const TileId& t : around) {
+    ctx.CheckShutdown();
+    if (!ctx.storage.GetTileState(t)) continue;
+    TileClassification c = ClassifyTile(ctx.storage, grid, t, version, cc,
+                                        ctx.config.pipeline.octree_resolution_m, cache);
+    c.record.updated_ms = NowMs();
+    records.push_back(std::move(c.record));
+  }
+  ctx.storage.ApplyTileChanges(0, records);
+}
+
+}  // namespace
+
 Json RunRefreshJob(JobContext& ctx) {
   const Json params = Json::parse(ctx.job.params_json);
   const double min_confidence = params.value("min_confidence", 0.5);
   const int64_t min_support = params.value("min_support", int64_t{1});
   const TileGrid grid(ctx.config.storage.tile_size_m);
+  const ClassifyConfig cc = CurrentClassifyConfig(ctx.storage, ctx.config.classify);
+
+  // Resumed after its version was written (crash or shutdown in step 3): finish step 3 only.
+  for (const PriorVersionRecord& v : ctx.storage.ListPriorVersions()) {
+    if (v.job_id != ctx.job.id || !ctx.job.result_json) continue;
+    Json result = Json::parse(*ctx.job.result_json);
+    std::vector<TileId> refreshed;
+    for (const Json& t : result["tiles"]) refreshed.push_back(*TileId::FromString(t["tile"].get<std::string>()));
+    ReclassifyAround(ctx, grid, refreshed, v.version, cc);
+    result["resumed"] = true;
+    return result;
+  }
+
   const std::optional<int64_t> latest = ctx.storage.LatestPriorVersion();
   if (!latest) throw ApiError(ApiCode::kNoPrior, "no prior map to refresh");
-  const ClassifyConfig cc = CurrentClassifyConfig(ctx.storage, ctx.config.classify);
   ObservedCache cache(ctx.storage);
-
   // 1. Compute every tile's new points in memory; nothing is written until step 2.
   std::vector<RefreshTileWrite> writes;
   Json tiles_report = Json::array();
@@ -132,29 +170,19 @@ Json RunRefreshJob(JobContext& ctx) {
     return Json{{"prior_version", *latest}, {"tiles", tiles_report},
                 {"note", "no change above the thresholds; prior unchanged"}};
   }
-  // 2. One transaction: version N+1, its tiles, aggregation reset, log, job succeeded.
+  // 2. One transaction: version N+1, its tiles, aggregation reset, log, the job's result.
   PriorVersionRecord meta;
   meta.note = "refresh job " + std::to_string(ctx.job.id);
   Json result{{"prior_version", *latest + 1}, {"parent_version", *latest}, {"tiles", tiles_report},
               {"min_confidence", min_confidence}, {"min_support", min_support}};
+  ctx.CheckStop();  // the last point where a cancel stops the refresh
   const int64_t version = ctx.storage.ApplyRefresh(ctx.job.id, meta, writes, result.dump(), NowMs());
   result["prior_version"] = version;
 
   // 3. Neighbours of refreshed tiles saw the old prior in their margins: reclassify them.
-  std::set<TileId> neighbours;
-  for (const auto& w : writes) {
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) neighbours.insert(TileId(w.tile.ix() + dx, w.tile.iy() + dy));
-    }
-  }
-  ObservedCache fresh_cache(ctx.storage);
-  for (const TileId& t : neighbours) {
-    if (!ctx.storage.GetTileState(t)) continue;
-    TileClassification c = ClassifyTile(ctx.storage, grid, t, version, cc,
-                                        ctx.config.pipeline.octree_resolution_m, fresh_cache);
-    c.record.updated_ms = NowMs();
-    ctx.storage.ApplyTileChanges(0, {c.record});
-  }
+  std::vector<TileId> refreshed;
+  for (const auto& w : writes) refreshed.push_back(w.tile);
+  ReclassifyAround(ctx, grid, refreshed, version, cc);
   return result;
 }
 

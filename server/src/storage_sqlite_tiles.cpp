@@ -330,11 +330,12 @@ int64_t SqliteStorage::ApplyRefresh(int64_t job_id, const PriorVersionRecord& me
     l.Bind(1, job_id).Bind(2, tile).Bind(3, t.from_version).Bind(4, version).Bind(5, t.added)
         .Bind(6, t.removed).Run();
   }
-  sql::Stmt f(db_,
-              "UPDATE jobs SET state = 'succeeded', progress = 1.0, message = ?, result_json = ?, "
-              "finished_ms = ? WHERE id = ?");
-  f.Bind(1, "prior version " + std::to_string(version) + " created").Bind(2, result_json)
-      .Bind(3, now_ms).Bind(4, job_id).Run();
+  // The job stays running (it reclassifies the neighbours next); its result is kept so that
+  // a resumed job finds the version it made instead of making another.
+  sql::Stmt f(db_, "UPDATE jobs SET progress = 0.9, message = ?, result_json = ? WHERE id = ?");
+  f.Bind(1, "prior version " + std::to_string(version) + " created; reclassifying neighbours")
+      .Bind(2, result_json).Bind(3, job_id).Run();
+  (void)now_ms;
   tx.Commit();
   return version;
 }

@@ -178,8 +178,9 @@ class Storage {
   virtual std::vector<TileChangesRecord> ListChangedTiles(const Rect& rect, double min_confidence,
                                                           int64_t limit, int64_t offset,
                                                           int64_t* total) = 0;
-  // One transaction: new prior version with these tiles, their aggregation and changes reset,
-  // a refresh_log row per tile, and the job finished as succeeded with result_json.
+  // One transaction: new prior version (its job_id = job_id) with these tiles, their
+  // aggregation and changes reset, a refresh_log row per tile, and result_json stored on the
+  // job (which stays running: the caller finishes it after reclassifying the neighbours).
   virtual int64_t ApplyRefresh(int64_t job_id, const PriorVersionRecord& meta,
                                const std::vector<RefreshTileWrite>& tiles,
                                const std::string& result_json, int64_t now_ms) = 0;
