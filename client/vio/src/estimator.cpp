@@ -108,9 +108,9 @@ NavState SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
   // The linear alignment's gravity is a few degrees off (frame-to-frame PnP positions are
   // noisy over a short chain); a converged joint solve fixes the tilt before the first
   // output instead of letting it leak out over the next seconds.
-  Optimize(config_.init_solver_iterations, 10 * config_.solver_max_time_s);
+  Optimize(config_.init_solver_iterations, config_.init_solver_max_time_s);
   RemoveOutliers();
-  Optimize(config_.init_solver_iterations, 10 * config_.solver_max_time_s);
+  Optimize(config_.init_solver_iterations, config_.init_solver_max_time_s);
   const NavState newest = StateOf(*window_.back());
   while (static_cast<int>(window_.size()) > config_.window_keyframes) MarginalizeOldest();
   return newest;

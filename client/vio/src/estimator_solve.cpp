@@ -77,7 +77,7 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s) {
   solver.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
-  MD_LOG(kDebug, "vio solve: " << summary.BriefReport());
+  MD_LOG(kDebug, "vio solve: " << summary.BriefReport() << " " << summary.total_time_in_seconds << " s");
 }
 
 void SlidingWindowEstimator::RemoveOutliers() {

@@ -38,6 +38,7 @@ struct VioConfig {
   // so its direction error scales with 1/span (tiny S2_01: 2.6 deg of tilt after 0.45 s,
   // 0.8 deg after 0.95 s).
   double init_min_span_s = 0.9;
+  double init_min_disparity_px = 8.0;  // stereo points used by the initializer's PnP chain
   double pixel_sigma = 1.0;         // feature measurement noise, px
   double huber_sigmas = 1.5;        // robust loss threshold in units of pixel_sigma
   // Observations beyond this after a solve are removed. Tight, because features on
@@ -57,6 +58,7 @@ struct VioConfig {
   double min_gyro_random_walk = 2e-5, min_accel_random_walk = 2e-4;
   int solver_iterations = 6;
   int init_solver_iterations = 30;  // first solve after initialization (converged)
+  double init_solver_max_time_s = 1.5;  // a one-off stall at (re)initialization
   double solver_max_time_s = 0.08;
   int solver_threads = 1;
   bool compute_keyframe_covariance = true;
