@@ -14,7 +14,7 @@ usage: bash tools/reproduce-paper.sh --out DIR [options]
   --sequences LIST    comma-separated (default: S1_01,S1_02,S2_01,S2_02,S1_mirror,S1_dark for
                       paper, S1_01,S2_01 for tiny)
   --noise LIST        small,big (default)
-  --trials N          noise seeds 1..N per sequence and noise (default 5)
+  --trials N          noise seeds 1..N per sequence and noise (default 5; 0 = crowd only)
   --seed N            city seed of the clean render (default 1)
   --thf LIST          th_f sweep in metres (default 5,10,15,20,25,30)
   --bounds LIST       free-ray bounds in px for the sweep (default 128,0: 128 = the server's
@@ -75,7 +75,7 @@ while [ $# -gt 0 ]; do
   esac
 done
 [ -n "$out" ] || { echo "reproduce-paper: --out is required (see --help)" >&2; exit 2; }
-[[ "$trials" =~ ^[1-9][0-9]*$ ]] || { echo "reproduce-paper: --trials '$trials': expected a positive integer" >&2; exit 2; }
+[[ "$trials" =~ ^[0-9]+$ ]] || { echo "reproduce-paper: --trials '$trials': expected an integer >= 0" >&2; exit 2; }
 [[ "$city_seed" =~ ^[0-9]+$ ]] || { echo "reproduce-paper: --seed '$city_seed': expected an integer" >&2; exit 2; }
 for v in ${thf_list//,/ } $thf_point; do
   [[ "$v" =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "reproduce-paper: th_f '$v' is not a number" >&2; exit 2; }
@@ -136,7 +136,7 @@ IFS=, read -r -a bound_arr <<<"$bounds"
 if [ "$report_only" = 0 ]; then
   total=$((${#seq_list[@]} * ${#noise_list[@]} * trials)) n=0
   for noise in "${noise_list[@]}"; do
-    for k in $(seq 1 "$trials"); do
+    for k in $(seq 1 "$trials"); do  # empty for --trials 0
       for seq in "${seq_list[@]}"; do
         n=$((n + 1))
         run=$out/runs/$seq-$noise-t$k

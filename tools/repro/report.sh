@@ -50,7 +50,8 @@ J() { jq -r "$@" "$res"; }
   echo
   echo "## Fig. 4 analogue: th_f sweep (fused poses), mean over sequences and trials"
   echo
-  for b in $(J '.free_ray_bounds_px[]'); do
+  # Bounds present in the runs (a resumed reproduction may have swept more than its last call).
+  for b in $(J '.free_ray_bounds_px as $p | ($p + ([.runs[].sweep[].free_ray_bound_px] | unique | map(select(. as $x | $p | index($x) | not))))[]'); do
     if [ "$b" = 0 ]; then echo "Free-ray bound 0 (the paper's rule: every pixel without depth is free space up to th_f):"
     else echo "Free-ray bound $b px (the server's default: a pixel without depth is free only up to the nearest depth within $b px):"; fi
     echo
