@@ -30,7 +30,13 @@ ClassifyConfig ClassifyConfigFromJson(const Json& j, const ClassifyConfig& base)
   RejectUnknownFields(j, {"th_ch_m", "min_voxel_support"}, "params");
   ClassifyConfig c = base;
   if (j.contains("th_ch_m")) c.th_ch_m = NumberField(j, "th_ch_m");
-  if (j.contains("min_voxel_support")) c.min_voxel_support = static_cast<int>(IntField(j, "min_voxel_support"));
+  if (j.contains("min_voxel_support")) {
+    const int64_t support = IntField(j, "min_voxel_support");  // checked before narrowing
+    if (support < 1 || support > 100000) {
+      throw ApiError(ApiCode::kInvalidArgument, "params.min_voxel_support: must be in [1, 100000]");
+    }
+    c.min_voxel_support = static_cast<int>(support);
+  }
   if (!(c.th_ch_m > 0 && c.th_ch_m <= 50)) {
     throw ApiError(ApiCode::kInvalidArgument, "params.th_ch_m: must be in (0, 50]");
   }

@@ -49,18 +49,19 @@ void RejectUnknownFields(const Json& obj, std::initializer_list<const char*> kno
 PinholeCamera CameraFromJson(const Json& j, const IngestConfig& limits) {
   RejectUnknownFields(j, {"width", "height", "fx", "fy", "cx", "cy"}, "camera");
   PinholeCamera c;
-  c.width = static_cast<int>(IntField(j, "width"));
-  c.height = static_cast<int>(IntField(j, "height"));
+  // Range-checked before narrowing to int (2^32 + 160 must not become 160).
+  const int64_t width = IntField(j, "width"), height = IntField(j, "height");
   c.fx = NumberField(j, "fx");
   c.fy = NumberField(j, "fy");
   c.cx = NumberField(j, "cx");
   c.cy = NumberField(j, "cy");
-  if (c.width < 1 || c.width > limits.max_image_width || c.height < 1 ||
-      c.height > limits.max_image_height) {
+  if (width < 1 || width > limits.max_image_width || height < 1 || height > limits.max_image_height) {
     throw ApiError(ApiCode::kInvalidArgument,
                    "camera: width/height must be in [1, " + std::to_string(limits.max_image_width) +
                        "] x [1, " + std::to_string(limits.max_image_height) + "]");
   }
+  c.width = static_cast<int>(width);
+  c.height = static_cast<int>(height);
   try {
     c.Validate();
   } catch (const std::exception& e) {

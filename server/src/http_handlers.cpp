@@ -223,7 +223,8 @@ void RegisterRoutes(httplib::Server& s, MapService& svc) {
           const auto bbox = Query(req, "bbox");
           if (!bbox) throw ApiError(ApiCode::kInvalidArgument, "query parameter 'bbox' is required");
           WriteJson(res, 200, svc.ListChangedTiles(*bbox, QueryDouble(req, "min_confidence", 0.0),
-                                                   QueryInt(req, "page", 1), QueryInt(req, "page_size", 100)));
+                                                   QueryInt(req, "page", 1), QueryInt(req, "page_size", 100),
+                                                   QueryInt(req, "min_support", 0)));
         }));
   s.Get(R"(/v1/changes/tiles/([-0-9_]{3,24}))", Wrap(svc, "/v1/changes/tiles/{tile}", [&svc](const Req& req, Res& res, std::string& role) {
           Auth(svc, req, role, {R});

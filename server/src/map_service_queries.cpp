@@ -73,6 +73,9 @@ Rect TileRange(const TileGrid& grid, double min_x, double min_y, double max_x, d
   return Rect{double(a.ix()), double(a.iy()), double(b.ix()), double(b.iy())};
 }
 
+// Map coordinates beyond this are rejected before they reach tile arithmetic (int32 indices).
+constexpr double kMaxCoordinate = 1e8;
+
 std::vector<double> ParseBbox(const std::string& text) {
   std::vector<double> v;
   std::stringstream ss(text);
@@ -84,6 +87,9 @@ std::vector<double> ParseBbox(const std::string& text) {
       throw ApiError(ApiCode::kInvalidArgument, "bbox: '" + item + "' is not a number");
     }
     v.push_back(d);
+  }
+  for (double d : v) {
+    if (std::abs(d) > kMaxCoordinate) throw ApiError(ApiCode::kInvalidArgument, "bbox: coordinates must be within +-1e8 m");
   }
   if (v.size() != 4 || v[0] > v[2] || v[1] > v[3]) {
     throw ApiError(ApiCode::kInvalidArgument, "bbox must be min_x,min_y,max_x,max_y with min <= max");
@@ -157,7 +163,9 @@ Json MapService::ImportPrior(const Bytes& bytes, const std::string& format, cons
 }
 
 Json MapService::ListPriorTilesNear(double x, double y, double radius_m, std::optional<int64_t> version) {
-  if (!std::isfinite(x) || !std::isfinite(y)) throw ApiError(ApiCode::kInvalidArgument, "x and y must be finite");
+  if (!(std::abs(x) <= kMaxCoordinate && std::abs(y) <= kMaxCoordinate)) {
+    throw ApiError(ApiCode::kInvalidArgument, "x and y must be finite and within +-1e8 m");
+  }
   if (!(radius_m >= 0 && radius_m <= 10000)) throw ApiError(ApiCode::kInvalidArgument, "radius must be in [0, 10000] m");
   const int64_t latest = RequirePriorVersion();
   const int64_t v = version.value_or(latest);
@@ -203,15 +211,45 @@ Json MapService::ListPriorVersions() {
 // ---------------------------------------------------------------- changes
 
 Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence, int64_t page,
-                                  int64_t page_size) {
+                                  int64_t page_size, int64_t min_support) {
   const std::vector<double> b = ParseBbox(bbox);
   CheckPage(page, page_size);
   if (!(min_confidence >= 0 && min_confidence <= 1)) throw ApiError(ApiCode::kInvalidArgument, "min_confidence must be in [0, 1]");
+  if (min_support < 0) throw ApiError(ApiCode::kInvalidArgument, "min_support must be >= 0");
   const TileGrid grid(config_.storage.tile_size_m);
+  const Rect range = TileRange(grid, b[0], b[1], b[2], b[3]);
   int64_t total = 0;
+  std::vector<TileChangesRecord> listed;
+  if (min_support == 0) {
+    listed = storage_->ListChangedTiles(range, min_confidence, page_size, (page - 1) * page_size, &total);
+  } else {
+    // Per point: a tile is listed if one of its changes passes both thresholds, with the
+    // counts of those that pass. Candidates are the tiles whose best confidence passes.
+    constexpr int64_t kMaxCandidates = 10000;
+    int64_t candidates = 0;
+    const auto all = storage_->ListChangedTiles(range, min_confidence, kMaxCandidates + 1, 0, &candidates);
+    if (candidates > kMaxCandidates) {
+      throw ApiError(ApiCode::kInvalidArgument, "min_support filtering covers at most " +
+                                                    std::to_string(kMaxCandidates) + " changed tiles; use a smaller bbox");
+    }
+    for (const TileChangesRecord& summary : all) {
+      auto full = storage_->GetTileChanges(summary.tile);
+      if (!full) continue;
+      TileChangesRecord r = *full;
+      r.new_count = r.removed_count = 0;
+      r.max_confidence = 0;
+      for (const ChangePoint& c : DecodeChanges(full->changes)) {
+        if (c.confidence < min_confidence || static_cast<int64_t>(c.supported_by.size()) < min_support) continue;
+        (c.kind == ChangeKind::kNew ? r.new_count : r.removed_count) += 1;
+        r.max_confidence = std::max(r.max_confidence, double{c.confidence});
+      }
+      if (r.new_count + r.removed_count == 0) continue;
+      if (total >= (page - 1) * page_size && total < page * page_size) listed.push_back(std::move(r));
+      ++total;
+    }
+  }
   Json tiles = Json::array();
-  for (const auto& c : storage_->ListChangedTiles(TileRange(grid, b[0], b[1], b[2], b[3]), min_confidence,
-                                                  page_size, (page - 1) * page_size, &total)) {
+  for (const auto& c : listed) {
     const AxisAlignedBox bounds = grid.Bounds(c.tile);
     tiles.push_back({{"tile", c.tile.ToString()},
                      {"new_count", c.new_count},

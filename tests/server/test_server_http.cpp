@@ -302,6 +302,18 @@ TEST_F(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   // Filters: min_support=2 keeps only points both vehicles support; PCD of one kind.
   const Json strict = Call(client_->Get("/v1/changes/tiles/1_0?min_support=2", H(reader_))).second;
   for (const Json& p : strict["new"]) EXPECT_EQ(p["supported_by"].size(), 2u);
+  // The listing with min_support counts exactly the points the per-tile query returns.
+  const Json strict_list =
+      Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&min_support=2&min_confidence=0.7", H(reader_))).second;
+  ASSERT_GE(strict_list["tiles"].size(), 1u);
+  EXPECT_EQ(strict_list["total"], strict_list["tiles"].size());
+  for (const Json& t : strict_list["tiles"]) {
+    const Json c = Call(client_->Get("/v1/changes/tiles/" + t["tile"].get<std::string>() +
+                                     "?min_support=2&min_confidence=0.7", H(reader_))).second;
+    EXPECT_EQ(t["new_count"], c["new"].size());
+    EXPECT_EQ(t["removed_count"], c["removed"].size());
+    EXPECT_GT(c["new"].size() + c["removed"].size(), 0u);
+  }
   const PointCloud removed_pcd = FetchCloud("/v1/changes/tiles/0_0?format=pcd&kind=removed");
   for (const Point& p : removed_pcd) EXPECT_LT(kBoxA.Distance(p.cast<double>()), 0.01);
   // The observed octree of a tile is a valid .bt download.
@@ -364,6 +376,110 @@ TEST_F(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   const auto metrics = client_->Get("/metrics");
   ASSERT_TRUE(metrics);
   EXPECT_NE(metrics->body.find("mapdelta_keyframes_ingested_total 42"), std::string::npos) << metrics->body;
+}
+
+// Malformed input on every body and parameter: each gets a 4xx JSON error, nothing is stored,
+// and the server keeps serving.
+TEST_F(ServerHttpTest, MalformedInputGets4xxAndTheServerKeepsServing) {
+  const int64_t s = CreateSession("car-1");
+  const SE3 T = CameraLookingMinusY(0, 25, kCameraHeight, kPitch);
+  const std::string png = PngString(ChangedScene().Render(TestCamera(), T, kMaxDepth));
+  std::vector<std::pair<std::string, httplib::Result>> cases;
+  auto add = [&](const std::string& name, httplib::Result r) { cases.emplace_back(name, std::move(r)); };
+  // Depth PNGs: truncated (header intact, data cut; and cut inside the header), a header
+  // claiming 60000x60000 (a decompression bomb if decoded), 8-bit instead of 16-bit.
+  add("png truncated", PutKeyframe(s, 0, MetaJson(1, T), png.substr(0, png.size() / 2)));
+  add("png cut in header", PutKeyframe(s, 0, MetaJson(1, T), png.substr(0, 20)));
+  std::string huge = png;
+  for (int i : {16, 20}) huge.replace(i, 4, std::string("\x00\x00\xea\x60", 4));
+  add("png huge", PutKeyframe(s, 0, MetaJson(1, T), huge));
+  std::string eight = png;
+  eight[24] = 8;
+  add("png 8-bit", PutKeyframe(s, 0, MetaJson(1, T), eight));
+  add("png empty", PutKeyframe(s, 0, MetaJson(1, T), ""));
+  // Meta JSON with wrong types, out-of-range numbers, inf (1e400 parses to inf) and NaN.
+  Json m = MetaJson(1, T);
+  for (const auto& [name, patch] : std::vector<std::pair<std::string, Json>>{
+           {"t_ns string", {{"t_ns", "1"}}},
+           {"t_ns float", {{"t_ns", 1.5}}},
+           {"t_ns beyond int64", {{"t_ns", 18446744073709551615ull}}},
+           {"pose array", {{"T_map_cam", Json::array()}}},
+           {"pose t strings", {{"T_map_cam", {{"t", {"a", "b", "c"}}, {"q", {1, 0, 0, 0}}}}}},
+           {"covariance object", {{"covariance", {{"a", 1}}}}},
+           {"covariance 35", {{"covariance", std::vector<double>(35, 1.0)}}},
+           {"covariance negative", {{"covariance", [] { std::vector<double> v(36, 0.0); v[0] = -1; return v; }()}}},
+           {"extra field", {{"speed", 3}}}}) {
+    Json bad = m;
+    bad.update(patch);
+    add("meta " + name, PutKeyframe(s, 0, bad, png));
+  }
+  const std::string meta_text = MetaJson(1, T).dump();
+  for (const std::string& text : {std::string("[1,2]"), std::string("null"), std::string("{\"t_ns\": NaN}"),
+                                  meta_text.substr(0, meta_text.size() - 3)}) {
+    httplib::MultipartFormDataItems items = {{"meta", text, "", "application/json"}, {"depth", png, "d.png", "image/png"}};
+    add("meta text " + text, client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/0", H(vehicle_), items));
+  }
+  std::string inf_cov = MetaJson(1, T).dump();
+  inf_cov.insert(inf_cov.size() - 1, ",\"covariance\":[1e400" + std::string(35 * 2, ' ') + "]");
+  for (int i = 0; i < 35; ++i) inf_cov.replace(inf_cov.find(' '), 2, ",0");
+  {
+    httplib::MultipartFormDataItems items = {{"meta", inf_cov, "", "application/json"}, {"depth", png, "d.png", "image/png"}};
+    add("covariance inf", client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/0", H(vehicle_), items));
+  }
+  // Sequence numbers: beyond max_keyframes_per_session, beyond int64 (no route), negative.
+  add("seq huge", PutKeyframe(s, 999999999999999999LL, MetaJson(1, T), png));
+  {
+    httplib::MultipartFormDataItems items = {{"meta", MetaJson(1, T).dump(), "", "application/json"}, {"depth", png, "d.png", "image/png"}};
+    add("seq 2^64", client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/18446744073709551616", H(vehicle_), items));
+    add("seq -1", client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/-1", H(vehicle_), items));
+    add("session 2^64", client_->Put("/v1/sessions/99999999999999999999/keyframes/0", H(vehicle_), items));
+  }
+  // Session creation with wrong types and a width that would wrap when narrowed to int.
+  for (const std::string& body :
+       {std::string(R"({"vehicle_id":5,"camera":{}})"), std::string(R"({"vehicle_id":"v","camera":"x"})"),
+        std::string(R"({"vehicle_id":"v","camera":{"width":4294967456,"height":90,"fx":80,"fy":80,"cx":80,"cy":45}})"),
+        std::string(R"({"vehicle_id":"v","camera":{"width":160,"height":90,"fx":1e400,"fy":80,"cx":80,"cy":45}})"),
+        std::string(R"({"vehicle_id":"v","depth_scale":"big","camera":{"width":160,"height":90,"fx":80,"fy":80,"cx":80,"cy":45}})"),
+        std::string("[]"), std::string("\"text\""), std::string("{\"vehicle_id\":\"v\",")}) {
+    add("session " + body, client_->Post("/v1/sessions", H(vehicle_), body, "application/json"));
+  }
+  // Admin jobs with wrong types and overflowing values.
+  for (const std::string& body :
+       {std::string(R"({"type":"refresh","bbox":["a",0,1,1]})"), std::string(R"({"type":"refresh","tiles":[1,2]})"),
+        std::string(R"({"type":"refresh","tiles":["99999999999_0"]})"), std::string(R"({"type":"refresh","bbox":[0,0,1,1],"min_confidence":"high"})"),
+        std::string(R"({"type":"refresh","bbox":[1e300,1e300,1e300,1e300]})"),
+        std::string(R"({"type":"reclassify","params":{"min_voxel_support":4294967297}})"),
+        std::string(R"({"type":7})"), std::string("[]")}) {
+    add("job " + body, client_->Post("/v1/admin/jobs", H(admin_), body, "application/json"));
+  }
+  // Query parameters.
+  for (const std::string& path :
+       {std::string("/v1/changes/tiles?bbox=nan,0,1,1"), std::string("/v1/changes/tiles?bbox=1e300,1e300,1e300,1e300"),
+        std::string("/v1/changes/tiles?bbox=0,0,1,1&page=abc"), std::string("/v1/changes/tiles?bbox=0,0,1,1&page=99999999999999999999"),
+        std::string("/v1/changes/tiles?bbox=0,0,1,1&page_size=0"), std::string("/v1/changes/tiles?bbox=0,0,1,1&min_confidence=inf"),
+        std::string("/v1/changes/tiles?bbox=0,0,1,1&min_support=-1"), std::string("/v1/changes/tiles/99999999999_1"),
+        std::string("/v1/changes/tiles/0_0?min_support=x"), std::string("/v1/observed/tiles/99999999999_1.bt"),
+        std::string("/v1/observed/tiles/2147483647_2147483647.bt")}) {
+    add("GET " + path, client_->Get(path, H(reader_)));
+  }
+  add("prior near inf", client_->Get("/v1/prior/tiles?x=1e300&y=0", H(vehicle_)));
+  add("prior truncated", client_->Post("/v1/admin/prior?format=pcd", H(admin_),
+                                       "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                                       "WIDTH 1000\nHEIGHT 1\nPOINTS 1000\nDATA binary\n\x01\x02",
+                                       "application/octet-stream"));
+  add("prior ply garbage", client_->Post("/v1/admin/prior?format=ply", H(admin_), std::string(1000, '\xff'), "application/octet-stream"));
+  for (auto& [name, r] : cases) {
+    SCOPED_TRACE(name);
+    ASSERT_TRUE(r) << "no response";
+    EXPECT_GE(r->status, 400) << r->body;
+    EXPECT_LT(r->status, 500) << r->body;
+    EXPECT_EQ(r->get_header_value("Content-Type"), "application/json");
+  }
+  // Nothing was stored, and the server still takes a good keyframe.
+  EXPECT_EQ(Call(client_->Get("/v1/sessions/" + std::to_string(s), H(vehicle_))).second["keyframe_count"], 0);
+  EXPECT_EQ(Call(PutKeyframe(s, 0, MetaJson(1, T), png)).first, 201);
+  EXPECT_EQ(Call(client_->Get("/health")).first, 200);
+  EXPECT_EQ(service_->storage().ListPriorVersions().size(), 0u);
 }
 
 }  // namespace

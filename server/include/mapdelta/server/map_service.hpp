@@ -59,8 +59,10 @@ class MapService {
   Json ListPriorVersions();
 
   // --- changes
+  // min_support > 0 filters point by point (both thresholds on the same point) and reports
+  // the counts of the points that pass; 0 uses the stored per-tile summary (no decoding).
   Json ListChangedTiles(const std::string& bbox, double min_confidence, int64_t page,
-                        int64_t page_size);
+                        int64_t page_size, int64_t min_support = 0);
   // format json -> JSON text; pcd/ply -> cloud of one kind (kind required).
   FilePayload GetTileChanges(const std::string& tile, const std::string& format,
                              const std::string& kind, double min_confidence, int64_t min_support);
