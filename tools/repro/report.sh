@@ -110,7 +110,7 @@ EOG
   echo
   echo "![fused vs VIO-only poses](plots/fig6.png)"
   gnuplot <<EOG
-set terminal pngcairo size 900,420 font "sans,10"
+set terminal pngcairo size 900,420 font "sans,10" noenhanced
 set output "$plots/fig6.png"
 set title "Change metrics from fused vs VIO-only poses"
 set style data histogram; set style histogram clustered gap 1; set style fill solid 0.8 border -1
