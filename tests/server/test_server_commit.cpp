@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 
 #include "blob_codec.hpp"
 #include "box_scene.hpp"
@@ -16,6 +17,7 @@
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/server/map_service.hpp"
+#include "sqlite_db.hpp"
 #include "support/temp_dir.hpp"
 
 namespace mapdelta::server {
@@ -208,6 +210,48 @@ TEST_F(CommitPaths, ObservedTileDownloadHoldsThatTileOnly) {
     }
   }
   EXPECT_THROW(fast_->GetObservedTile("40_40"), ApiError);  // never observed: 404
+}
+
+// A refresh killed after writing its version (state left 'running', neighbours not yet
+// reclassified) resumes by reclassifying the neighbours against that version; it does not
+// make a second version. Runs last: it changes the fast database.
+TEST_F(CommitPaths, RefreshResumedAfterItsVersionFinishesWithoutASecondVersion) {
+  const Json job = fast_->CreateJob({{"type", "refresh"}, {"bbox", {-30, -10, 70, 40}}, {"min_confidence", 0.6}});
+  fast_->RunQueuedJobsNow();
+  const int64_t id = job["job_id"];
+  const Json done = fast_->GetJob(id);
+  ASSERT_EQ(done["state"], "succeeded") << done.dump(2);
+  ASSERT_EQ(fast_->storage().ListPriorVersions().size(), 2u);
+  // Classifications after the refresh: the neighbours of refreshed tiles against version 2
+  // (step 3), tiles farther away keep their version-1 result (their prior did not change).
+  std::map<std::string, std::pair<int64_t, Bytes>> after;
+  size_t redone = 0;
+  for (const TileId& t : fast_->storage().ListAggregatedTiles(std::nullopt)) {
+    const auto c = fast_->storage().GetTileChanges(t);
+    ASSERT_TRUE(c);
+    after[t.ToString()] = {c->prior_version, c->changes};
+    redone += c->prior_version == 2;
+  }
+  ASSERT_GE(redone, 1u);
+  // Simulate the crash between the version's transaction and the neighbours' one.
+  {
+    sql::Db db((*dir_ / "fast.db").string());
+    db.Exec("UPDATE jobs SET state = 'running', finished_ms = NULL WHERE id = " + std::to_string(id));
+    db.Exec("UPDATE tile_changes SET prior_version = 1, changes = x'' WHERE prior_version = 2");
+  }
+  EXPECT_EQ(fast_->storage().RequeueInterruptedJobs(), 1);
+  fast_->RunQueuedJobsNow();
+  const Json resumed = fast_->GetJob(id);
+  ASSERT_EQ(resumed["state"], "succeeded") << resumed.dump(2);
+  EXPECT_EQ(resumed["result"]["resumed"], true);
+  EXPECT_EQ(resumed["result"]["prior_version"], 2);
+  EXPECT_EQ(fast_->storage().ListPriorVersions().size(), 2u);
+  for (const auto& [tile, expected] : after) {
+    const auto c = fast_->storage().GetTileChanges(*TileId::FromString(tile));
+    ASSERT_TRUE(c);
+    EXPECT_EQ(c->prior_version, expected.first) << tile;
+    EXPECT_EQ(c->changes, expected.second) << tile;
+  }
 }
 
 }  // namespace
