@@ -14,6 +14,7 @@
 #include "mapdelta/client/odometry_source.hpp"
 #include "mapdelta/client/pipeline.hpp"
 #include "mapdelta/client/prior_source.hpp"
+#include "mapdelta/client/registration_report.hpp"
 #include "mapdelta/client/uploader.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
@@ -38,6 +39,7 @@ const char* kRunUsage =
     "  --server URL        fetch prior tiles from the server (cached in OUT/prior_cache) and\n"
     "  --token T           upload the session (unless --no-upload)\n"
     "  --out DIR           vio.txt, fused.txt (TUM, T_map_body), keyframes/, timing.txt,\n"
+    "                      registrations.csv (every attempt, pose, sigmas, reason),\n"
     "                      config.yaml (effective config), keyframes.upload_queue/\n"
     "  --config FILE       YAML configuration (see 'mapdelta-client config')\n"
     "  --initial-pose \"x y z qx qy qz qw\"  guess of T_map_body at the first keyframe\n"
@@ -204,6 +206,22 @@ int RunPipeline(int argc, char** argv) {
   WriteTumTrajectory(out + "/vio.txt", result.vio_T_map_body);
   WriteTumTrajectory(out + "/fused.txt", result.fused_T_map_body);
   WriteTiming(out + "/timing.txt", result);
+  WriteRegistrationsCsv(out + "/registrations.csv", result.registrations);
+  {
+    // Covariance calibration against the sequence's ground truth, when it has one.
+    const EurocSequence seq = ReadEurocSequence(in.sequence_dir);
+    const CovarianceCalibration c = CalibrateAgainst(result.registrations, seq.groundtruth);
+    if (c.registrations > 0) {
+      std::fprintf(stderr,
+                   "registration covariance vs ground truth (%zu accepted): within 3 sigma %.3f "
+                   "(rx %.2f ry %.2f rz %.2f tx %.2f ty %.2f tz %.2f), mean NEES %.1f (6 if calibrated), "
+                   "rms error / sigma %.2f %.2f %.2f %.2f %.2f %.2f\n",
+                   c.registrations, c.within_3sigma_all, c.within_3sigma[0], c.within_3sigma[1],
+                   c.within_3sigma[2], c.within_3sigma[3], c.within_3sigma[4], c.within_3sigma[5], c.mean_nees,
+                   c.rms_over_sigma[0], c.rms_over_sigma[1], c.rms_over_sigma[2], c.rms_over_sigma[3],
+                   c.rms_over_sigma[4], c.rms_over_sigma[5]);
+    }
+  }
 
   if (upload_thread.joinable()) {
     queue->Seal();

@@ -7,5 +7,6 @@ int RunConfig(int argc, char** argv);
 int RunPipeline(int argc, char** argv);
 int RunUpload(int argc, char** argv);
 int RunDrift(int argc, char** argv);
+int RunDepthEval(int argc, char** argv);
 
 }  // namespace mapdelta::client::app

@@ -21,6 +21,7 @@ void PrintUsage() {
                "            upload a keyframe folder written in offline mode\n"
                "  config [--config FILE]   print the effective configuration\n"
                "  drift GT OUT [...]       drifting odometry from ground truth (test fixture)\n"
+               "  depth-eval KEYFRAMES SEQUENCE  keyframe depth vs the sequence's depth0 ground truth\n"
                "Run 'mapdelta-client <command> --help' for a command's options.\n");
 }
 
@@ -38,6 +39,7 @@ int main(int argc, char** argv) {
     if (command == "run") return mapdelta::client::app::RunPipeline(argc - 1, argv + 1);
     if (command == "upload") return mapdelta::client::app::RunUpload(argc - 1, argv + 1);
     if (command == "drift") return mapdelta::client::app::RunDrift(argc - 1, argv + 1);
+    if (command == "depth-eval") return mapdelta::client::app::RunDepthEval(argc - 1, argv + 1);
   } catch (const mapdelta::Error& e) {
     std::fprintf(stderr, "mapdelta-client %s: error (%s): %s\n", command.c_str(),
                  std::string(mapdelta::ToString(e.code())).c_str(), e.what());

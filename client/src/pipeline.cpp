@@ -182,6 +182,8 @@ class Backend {
                        : reanchor ? " (re-anchoring after an odometry reset)"
                        : relocalize ? " (re-localization)"
                                     : "";
+    result_->registrations.push_back({fusion_.t_ns(k), k, r.accepted, r.reason, r.T_map_body, r.covariance,
+                                      r.fitness_m, r.inlier_fraction});
     if (!r.accepted) {
       ++result_->registrations_rejected;
       ++rejected_in_row_;

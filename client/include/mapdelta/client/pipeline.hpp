@@ -30,6 +30,18 @@ struct PipelineInputs {
   int num_threads = 2;                   // for GICP
 };
 
+// One registration attempt, for reports (registrations.csv, covariance calibration).
+struct RegistrationRecord {
+  int64_t t_ns = 0;
+  size_t keyframe = 0;
+  bool accepted = false;
+  std::string reason;
+  SE3 T_map_body = SE3::Identity();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+  double fitness_m = 0;
+  double inlier_fraction = 0;
+};
+
 struct StageTiming {
   std::string stage;
   double seconds = 0;
@@ -47,6 +59,7 @@ struct PipelineResult {
   size_t odometry_resets = 0;      // odometry segment changes seen (VIO resets)
   size_t segments_reanchored = 0;  // segments after a reset re-localized by a registration
   size_t keyframes_unplaced = 0;   // keyframes of never re-anchored segments: not written/uploaded
+  std::vector<RegistrationRecord> registrations;  // every attempt, in order
   std::vector<StageTiming> timing;
   double wall_seconds = 0;
 };
