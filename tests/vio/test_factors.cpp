@@ -133,6 +133,41 @@ TEST(Factors, ReprojectionAndStereoJacobiansMatchNumeric) {
   }
 }
 
+// The closed-form reprojection Jacobians against numeric differentiation and against the
+// autodiff of the same residual, over random poses, both cameras and near/far depths.
+TEST(Factors, AnalyticReprojectionMatchesNumericAndAutodiff) {
+  std::mt19937 rng(7);
+  const auto cam0 = Cam({-1.2, 0.0, -1.2}, {0.1, 0.05, 0.0});
+  const auto cam1 = Cam({-1.2, 0.0, -1.2}, {0.1, -0.95, 0.0});
+  for (const auto* cam_j : {&cam0, &cam1}) {
+    std::unique_ptr<ceres::CostFunction> analytic(ReprojectionFactor::Create(
+        Eigen::Vector2d(0.1, -0.2), Eigen::Vector2d(0.05, 0.1), cam0, *cam_j, 400.0, true));
+    std::unique_ptr<ceres::CostFunction> autodiff(ReprojectionFactor::Create(
+        Eigen::Vector2d(0.1, -0.2), Eigen::Vector2d(0.05, 0.1), cam0, *cam_j, 400.0, false));
+    for (double rho : {0.5, 0.2, 0.01}) {
+      Blocks blocks = {RandomPose(rng, 0.3), RandomPose(rng, 0.3), {rho}};
+      EXPECT_LT(JacobianError(*analytic, blocks), 1e-5);
+      std::vector<const double*> ptrs = {blocks[0].data(), blocks[1].data(), blocks[2].data()};
+      double ra[2], rb[2], Ja[3][14], Jb[3][14];
+      double* ja[3] = {Ja[0], Ja[1], Ja[2]};
+      double* jb[3] = {Jb[0], Jb[1], Jb[2]};
+      ASSERT_TRUE(analytic->Evaluate(ptrs.data(), ra, ja));
+      ASSERT_TRUE(autodiff->Evaluate(ptrs.data(), rb, jb));
+      EXPECT_NEAR(ra[0], rb[0], 1e-9);
+      EXPECT_NEAR(ra[1], rb[1], 1e-9);
+      // Ambient quaternion columns may differ (only J_q M is defined); compare tangents.
+      for (int k = 0; k < 2; ++k) {
+        const Eigen::Map<Eigen::Matrix<double, 2, 7, Eigen::RowMajor>> A(Ja[k]), B(Jb[k]);
+        const Eigen::MatrixXd ta = ToTangentJacobian(blocks[k].data(), 7, A);
+        const Eigen::MatrixXd tb = ToTangentJacobian(blocks[k].data(), 7, B);
+        EXPECT_LT((ta - tb).cwiseAbs().maxCoeff(), 1e-8 * (1 + tb.cwiseAbs().maxCoeff()));
+      }
+      EXPECT_NEAR(Ja[2][0], Jb[2][0], 1e-8 * (1 + std::abs(Jb[2][0])));
+      EXPECT_NEAR(Ja[2][1], Jb[2][1], 1e-8 * (1 + std::abs(Jb[2][1])));
+    }
+  }
+}
+
 TEST(Factors, MarginalizationFactorJacobianMatchesNumeric) {
   std::mt19937 rng(3);
   auto marg = std::make_shared<Marginalizer>();

@@ -26,7 +26,8 @@ const char* kUsage =
     "  --attitude-out FILE   per-frame roll/pitch/yaw/tilt errors against ground truth (deg)\n"
     "  --threads N           Ceres threads (default 1)\n"
     "  --set KEY=VALUE       override a VioConfig number: iterations, window, init_frames,\n"
-    "                        init_span (s), init_iterations, max_features,\n"
+    "                        init_span (s), init_iterations, analytic (0/1),\n"
+    "                        motion_only (0/1), max_features,\n"
     "                        min_distance, pixel_sigma, huber, parallax, right_other (0/1),\n"
     "                        covariance (0/1), min_zncc, outlier (sigmas)\n"
     "  --log-level L         debug|info|warn|error (default info)\n"
@@ -62,6 +63,8 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   else if (key == "parallax") c->keyframe_parallax = v;
   else if (key == "right_other") c->right_in_other_frames = v != 0;
   else if (key == "covariance") c->compute_keyframe_covariance = v != 0;
+  else if (key == "analytic") c->analytic_reprojection = v != 0;
+  else if (key == "motion_only") c->motion_only_non_keyframes = v != 0;
   else if (key == "min_zncc") c->tracker.min_zncc = v;
   else if (key == "outlier") c->outlier_sigmas = v;
   else {

@@ -239,7 +239,9 @@ EstimatorOutput SlidingWindowEstimator::AddFrame(const FrameFeatures& features,
 
   // 3. Optimize and clean up.
   const auto t_opt = std::chrono::steady_clock::now();
-  Optimize(config_.solver_iterations, config_.solver_max_time_s);
+  // A non-keyframe leaves the window at the next frame: only its own state needs solving.
+  Optimize(config_.solver_iterations, config_.solver_max_time_s,
+           !added->keyframe && config_.motion_only_non_keyframes);
   RemoveOutliers();
   out.optimize_ms = MsSince(t_opt);
 

@@ -1,5 +1,6 @@
 // Optimization, outlier removal, marginalization and covariance of the sliding window.
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 
 #include "mapdelta/common/log.hpp"
@@ -27,10 +28,12 @@ void SlidingWindowEstimator::LandmarkFactors(Landmark* lm, FactorList* out) cons
       continue;
     }
     Frame* f = FindFrame(t);
-    out->push_back({ReprojectionFactor::Create(a.left, obs.left, cam0_, cam0_, weight_),
+    out->push_back({ReprojectionFactor::Create(a.left, obs.left, cam0_, cam0_, weight_,
+                                               config_.analytic_reprojection),
                     {anchor->pose, f->pose, &lm->inv_depth}});
     if (obs.has_right && config_.right_in_other_frames) {
-      out->push_back({ReprojectionFactor::Create(a.left, obs.right, cam0_, cam1_, weight_),
+      out->push_back({ReprojectionFactor::Create(a.left, obs.right, cam0_, cam1_, weight_,
+                                                 config_.analytic_reprojection),
                       {anchor->pose, f->pose, &lm->inv_depth}});
     }
   }
@@ -47,7 +50,7 @@ void SlidingWindowEstimator::AllFactors(FactorList* out) {
   for (auto& [id, lm] : landmarks_) LandmarkFactors(&lm, out);
 }
 
-void SlidingWindowEstimator::Optimize(int iterations, double max_time_s) {
+void SlidingWindowEstimator::Optimize(int iterations, double max_time_s, bool motion_only) {
   ceres::Problem::Options options;
   options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -58,10 +61,24 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s) {
   }
   FactorList factors;
   AllFactors(&factors);
+  const Frame& newest = *window_.back();
   for (auto& [cost, blocks] : factors) {
+    // Motion-only: just the factors of the newest frame (its IMU factor and observations).
+    if (motion_only && std::find(blocks.begin(), blocks.end(), newest.pose) == blocks.end() &&
+        std::find(blocks.begin(), blocks.end(), newest.sb) == blocks.end()) {
+      delete cost;
+      continue;
+    }
     // Visual factors (all but IMU and prior) get the robust loss.
     const bool visual = cost->num_residuals() == 2;
     problem.AddResidualBlock(cost, visual ? loss_.get() : nullptr, blocks);
+  }
+  if (motion_only) {
+    std::vector<double*> blocks;
+    problem.GetParameterBlocks(&blocks);
+    for (double* b : blocks) {
+      if (b != newest.pose && b != newest.sb) problem.SetParameterBlockConstant(b);
+    }
   }
   for (auto& [id, lm] : landmarks_) {
     if (problem.HasParameterBlock(&lm.inv_depth)) {

@@ -95,9 +95,56 @@ ceres::CostFunction* ImuFactor::Create(const ImuPreintegration& pre, const Eigen
 ceres::CostFunction* ReprojectionFactor::Create(const Eigen::Vector2d& obs_i,
                                                 const Eigen::Vector2d& obs_j,
                                                 const CameraExtrinsics& cam0,
-                                                const CameraExtrinsics& cam_j, double weight) {
+                                                const CameraExtrinsics& cam_j, double weight,
+                                                bool analytic) {
+  const ReprojectionFactor f(obs_i, obs_j, cam0, cam_j, weight);
+  if (analytic) return new ReprojectionCost(f, obs_i, obs_j, cam0, cam_j, weight);
   return new ceres::AutoDiffCostFunction<ReprojectionFactor, 2, 7, 7, 1>(
-      new ReprojectionFactor(obs_i, obs_j, cam0, cam_j, weight));
+      new ReprojectionFactor(f));
+}
+
+ReprojectionCost::ReprojectionCost(const ReprojectionFactor&, const Eigen::Vector2d& obs_i,
+                                   const Eigen::Vector2d& obs_j, const CameraExtrinsics& cam0,
+                                   const CameraExtrinsics& cam_j, double weight)
+    : f_i_(obs_i.x(), obs_i.y(), 1.0), t_bc0_(cam0.t_body_cam), t_bcj_(cam_j.t_body_cam),
+      R_bc0_(cam0.q_body_cam.toRotationMatrix()),
+      R_cjb_(cam_j.q_body_cam.toRotationMatrix().transpose()), obs_j_(obs_j), weight_(weight) {}
+
+bool ReprojectionCost::Evaluate(double const* const* parameters, double* residuals,
+                                double** jacobians) const {
+  const Eigen::Map<const Eigen::Vector3d> p_i(parameters[0]), p_j(parameters[1]);
+  const Eigen::Map<const Eigen::Quaterniond> q_i(parameters[0] + 3), q_j(parameters[1] + 3);
+  const double rho = parameters[2][0];
+  const Eigen::Matrix3d R_i = q_i.toRotationMatrix(), R_jT = q_j.toRotationMatrix().transpose();
+  const Eigen::Vector3d P_body_i = R_bc0_ * f_i_ + t_bc0_ * rho;
+  const Eigen::Vector3d P_world = R_i * P_body_i + p_i * rho;
+  const Eigen::Vector3d P_body_j = R_jT * (P_world - p_j * rho);
+  const Eigen::Vector3d P_c = R_cjb_ * (P_body_j - t_bcj_ * rho);
+  const double iz = 1.0 / P_c.z();
+  residuals[0] = weight_ * (P_c.x() * iz - obs_j_.x());
+  residuals[1] = weight_ * (P_c.y() * iz - obs_j_.y());
+  if (!jacobians) return true;
+  Eigen::Matrix<double, 2, 3> D;  // d residual / d P_c
+  D << weight_ * iz, 0, -weight_ * P_c.x() * iz * iz, 0, weight_ * iz, -weight_ * P_c.y() * iz * iz;
+  const Eigen::Matrix<double, 2, 3> DA = D * R_cjb_;
+  const Eigen::Matrix<double, 2, 3> DB = DA * R_jT;
+  using J27 = Eigen::Map<Eigen::Matrix<double, 2, 7, Eigen::RowMajor>>;
+  auto fill_pose = [](double* out, const Eigen::Matrix<double, 2, 3>& J_p,
+                      const Eigen::Matrix<double, 2, 3>& J_theta, const double* q_xyzw) {
+    J27 J(out);
+    J.leftCols<3>() = J_p;
+    J.rightCols<4>() = 4.0 * J_theta * QuaternionPlusJacobian(q_xyzw).transpose();
+  };
+  if (jacobians[0]) {
+    fill_pose(jacobians[0], DB * rho, -DB * R_i * Skew(P_body_i), parameters[0] + 3);
+  }
+  if (jacobians[1]) fill_pose(jacobians[1], -DB * rho, DA * Skew(P_body_j), parameters[1] + 3);
+  if (jacobians[2]) {
+    const Eigen::Vector2d J_rho = DB * (R_i * t_bc0_ + p_i - p_j) - DA * t_bcj_;
+    jacobians[2][0] = J_rho.x();
+    jacobians[2][1] = J_rho.y();
+  }
+  return true;
 }
 
 StereoFactor::StereoFactor(const Eigen::Vector2d& obs_left, const Eigen::Vector2d& obs_right,

@@ -76,7 +76,8 @@ class SlidingWindowEstimator {
   void RemoveFrameObservations(int64_t t_ns);
   void Triangulate(Landmark* lm) const;
   bool IsKeyframe(const FrameFeatures& features) const;
-  void Optimize(int iterations, double max_time_s);
+  // motion_only: only the newest frame's pose and speed/bias move (non-keyframes).
+  void Optimize(int iterations, double max_time_s, bool motion_only = false);
   using FactorList = std::vector<std::pair<ceres::CostFunction*, std::vector<double*>>>;
   // Visual factors of a landmark (empty if it constrains no pose); caller owns them.
   void LandmarkFactors(Landmark* lm, FactorList* out) const;

@@ -100,9 +100,12 @@ class ReprojectionFactor {
   ReprojectionFactor(const Eigen::Vector2d& obs_i, const Eigen::Vector2d& obs_j,
                      const CameraExtrinsics& cam0, const CameraExtrinsics& cam_j, double weight)
       : obs_i_(obs_i), obs_j_(obs_j), cam0_(cam0), cam_j_(cam_j), weight_(weight) {}
+  // analytic: closed-form Jacobians (ReprojectionCost, the window's hot factor: autodiff's
+  // 15-wide jets took a third of the CPU); false: autodiff of operator() (the reference).
   static ceres::CostFunction* Create(const Eigen::Vector2d& obs_i, const Eigen::Vector2d& obs_j,
                                      const CameraExtrinsics& cam0,
-                                     const CameraExtrinsics& cam_j, double weight);
+                                     const CameraExtrinsics& cam_j, double weight,
+                                     bool analytic = true);
 
   template <typename T>
   bool operator()(const T* pose_i, const T* pose_j, const T* rho, T* out) const {
@@ -126,6 +129,27 @@ class ReprojectionFactor {
  private:
   Eigen::Vector2d obs_i_, obs_j_;
   CameraExtrinsics cam0_, cam_j_;
+  double weight_;
+};
+
+// ReprojectionFactor with closed-form Jacobians. Tangent Jacobians (P_c: point in camera j,
+// scaled by rho; A = R_body_camj^T, B = A R_j^T):
+//   d/dp_i = B rho,  d/dtheta_i = -B R_i [P_body_i]x,  d/dp_j = -B rho,
+//   d/dtheta_j = A [P_body_j]x,  d/drho = B (R_i t_body_cam0 + p_i - p_j) - A t_body_camj,
+// chained with the projection; quaternion columns = 4 J_theta M^T (M: the manifold's 4x3
+// plus Jacobian, whose columns are orthogonal with norm 1/2, so J_q M = J_theta).
+class ReprojectionCost : public ceres::SizedCostFunction<2, 7, 7, 1> {
+ public:
+  explicit ReprojectionCost(const ReprojectionFactor& f, const Eigen::Vector2d& obs_i,
+                            const Eigen::Vector2d& obs_j, const CameraExtrinsics& cam0,
+                            const CameraExtrinsics& cam_j, double weight);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Eigen::Vector3d f_i_, t_bc0_, t_bcj_;
+  Eigen::Matrix3d R_bc0_, R_cjb_;
+  Eigen::Vector2d obs_j_;
   double weight_;
 };
 

@@ -57,6 +57,10 @@ struct VioConfig {
   double min_gyro_noise_density = 2e-4, min_accel_noise_density = 2e-3;
   double min_gyro_random_walk = 2e-5, min_accel_random_walk = 2e-4;
   int solver_iterations = 6;
+  // Speed (bench/bench_vio): closed-form reprojection Jacobians instead of autodiff, and
+  // for non-keyframes a motion-only solve of the newest state instead of the whole window.
+  bool analytic_reprojection = true;
+  bool motion_only_non_keyframes = true;
   int init_solver_iterations = 30;  // first solve after initialization (converged)
   double init_solver_max_time_s = 1.5;  // a one-off stall at (re)initialization
   double solver_max_time_s = 0.08;
