@@ -215,11 +215,11 @@ int RunPipeline(int argc, char** argv) {
       std::fprintf(stderr,
                    "registration covariance vs ground truth (%zu accepted): within 3 sigma %.3f "
                    "(rx %.2f ry %.2f rz %.2f tx %.2f ty %.2f tz %.2f), mean NEES %.1f (6 if calibrated), "
-                   "rms error / sigma %.2f %.2f %.2f %.2f %.2f %.2f\n",
+                   "rms error / sigma %.2f %.2f %.2f %.2f %.2f %.2f; covariance factor for 97%% within 3 sigma %.2f\n",
                    c.registrations, c.within_3sigma_all, c.within_3sigma[0], c.within_3sigma[1],
                    c.within_3sigma[2], c.within_3sigma[3], c.within_3sigma[4], c.within_3sigma[5], c.mean_nees,
                    c.rms_over_sigma[0], c.rms_over_sigma[1], c.rms_over_sigma[2], c.rms_over_sigma[3],
-                   c.rms_over_sigma[4], c.rms_over_sigma[5]);
+                   c.rms_over_sigma[4], c.rms_over_sigma[5], c.scale_for_97);
     }
   }
 

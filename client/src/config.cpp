@@ -42,6 +42,7 @@ std::vector<Field> Fields(ClientConfig& c) {
       {"temporal_filter", "half_window", &t.half_window, 0, 10},
       {"temporal_filter", "delta_d_m", &t.delta_d_m, 1e-6, 1e6},
       {"temporal_filter", "alpha", &t.alpha, 0, 20},
+      {"temporal_filter", "registration_alpha", &t.registration_alpha, 0, 20},
       {"keyframes", "min_translation_m", &k.min_translation_m, 0, 1e6},
       {"keyframes", "min_rotation_deg", &k.min_rotation_deg, 0, 360},
       {"keyframes", "max_interval_s", &k.max_interval_s, 1e-3, 1e6},

@@ -114,9 +114,15 @@ class Backend {
       frames.push_back({raw_[j].odom.T_odom_body * rig_.T_body_cam0, &raw_[j].raw});
     }
     DepthImage filtered;
+    std::optional<DepthImage> for_registration;  // only when its alpha differs
     {
       StageTimer::Scope t(timer_, "2 temporal filter");
       filtered = TemporalFilter(frames, center, rig_.left, config_.temporal_filter);
+      if (config_.temporal_filter.registration_alpha != config_.temporal_filter.alpha) {
+        TemporalFilterConfig strict = config_.temporal_filter;
+        strict.alpha = strict.registration_alpha;
+        for_registration = TemporalFilter(frames, center, rig_.left, strict);
+      }
     }
     const KeyframeDepth& kf = raw_[i];
     const size_t k = fusion_.AddKeyframe(kf.t_ns, kf.odom.T_odom_body, kf.odom.rel_covariance,
@@ -129,6 +135,7 @@ class Backend {
                                            "until a registration re-anchors it");
     }
     filtered_.push_back(std::move(filtered));
+    registration_depth_.push_back(std::move(for_registration));
     ++filtered_in_window_;
     // Raw depth older than the window is no longer needed.
     while (filtered_in_window_ > w) {
@@ -148,7 +155,9 @@ class Backend {
     std::vector<LocalCloudFrame> frames;
     for (size_t j = k + 1 - n; j <= k; ++j) {
       if (j < first_unemitted_) continue;  // already handed downstream (only with odd configs)
-      frames.push_back({fusion_.OdometryPose(j), &filtered_[j - first_unemitted_]});
+      const size_t q = j - first_unemitted_;
+      frames.push_back({fusion_.OdometryPose(j),
+                        registration_depth_[q] ? &*registration_depth_[q] : &filtered_[q]});
     }
     PointCloud local;
     {
@@ -263,6 +272,7 @@ class Backend {
       if (!Placed(first_unemitted_)) {
         ++result_->keyframes_unplaced;
         filtered_.pop_front();
+        registration_depth_.pop_front();
         ++first_unemitted_;
         continue;
       }
@@ -283,6 +293,7 @@ class Backend {
       f.keyframe.T_map_cam = fusion_.FusedPose(first_unemitted_) * rig_.T_body_cam0;
       f.keyframe.depth = std::move(filtered_.front());
       filtered_.pop_front();
+      registration_depth_.pop_front();
       ++first_unemitted_;
       if (!out_->Push(std::move(f))) throw Error(ErrorCode::kInternal, "output queue closed");
     }
@@ -298,6 +309,8 @@ class Backend {
   std::deque<KeyframeDepth> raw_;   // unfiltered keyframes still needed by the filter window
   size_t filtered_in_window_ = 0;   // how many of raw_ are filtered already
   std::deque<DepthImage> filtered_; // filtered depth of keyframes not yet emitted
+  // The same keyframes filtered with registration_alpha (empty when it equals alpha).
+  std::deque<std::optional<DepthImage>> registration_depth_;
   size_t first_unemitted_ = 0;
   bool started_ = false;            // start-up refinement accepted
   int rejected_in_row_ = 0;

@@ -1,6 +1,7 @@
 #include "mapdelta/client/registration_report.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -15,6 +16,7 @@ CovarianceCalibration CalibrateAgainst(const std::vector<RegistrationRecord>& re
   double sum_e2[6] = {}, sum_var[6] = {};
   size_t within[6] = {};
   double nees = 0;
+  std::vector<double> normalized;  // |e_i| / sigma_i over all axes
   for (const auto& r : records) {
     SE3 truth;
     if (!r.accepted || !InterpolateAt(gt, r.t_ns, &truth)) continue;
@@ -26,6 +28,7 @@ CovarianceCalibration CalibrateAgainst(const std::vector<RegistrationRecord>& re
     for (int i = 0; i < 6; ++i) {
       const double var = r.covariance(i, i);
       within[i] += std::abs(e[i]) <= 3.0 * std::sqrt(var);
+      normalized.push_back(std::abs(e[i]) / std::sqrt(std::max(var, 1e-300)));
       sum_e2[i] += e[i] * e[i];
       sum_var[i] += var;
     }
@@ -40,6 +43,9 @@ CovarianceCalibration CalibrateAgainst(const std::vector<RegistrationRecord>& re
   }
   c.within_3sigma_all = all / (6.0 * n);
   c.mean_nees = nees / n;
+  std::sort(normalized.begin(), normalized.end());
+  const double q97 = normalized[std::min(normalized.size() - 1, static_cast<size_t>(0.97 * normalized.size()))];
+  c.scale_for_97 = (q97 / 3.0) * (q97 / 3.0);
   return c;
 }
 

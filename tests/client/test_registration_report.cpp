@@ -50,6 +50,9 @@ TEST(RegistrationReport, CalibrationOfSampledErrors) {
   const CovarianceCalibration o = CalibrateAgainst(overconfident, gt);
   EXPECT_LT(o.within_3sigma_all, 0.5);
   EXPECT_GT(o.mean_nees, 100.0);
+  // Inflating the overconfident covariance by the suggested factor calibrates it.
+  EXPECT_NEAR(c.scale_for_97, 0.5, 0.3);  // ~2.17 sigma is the 97th percentile of |N(0,1)|
+  EXPECT_NEAR(o.scale_for_97, 100.0 * c.scale_for_97, 1e-6 * o.scale_for_97);
 }
 
 }  // namespace

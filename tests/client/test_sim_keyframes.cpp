@@ -61,7 +61,9 @@ TEST(SimKeyframes, TemporalFilterLowersSgbmDepthErrorAgainstGroundTruth) {
     window.push_back({T_map_body * rig.T_body_cam0, &raw[i]});
   }
   const DepthImage gt = ReadDepthPng(seq.depth0_images[2].path);
-  const DepthImage filtered = TemporalFilter(window, 2, rig.left, TemporalFilterConfig{});
+  TemporalFilterConfig paper;  // the paper's alpha 4 (our default is 2)
+  paper.alpha = 4;
+  const DepthImage filtered = TemporalFilter(window, 2, rig.left, paper);
   const DepthError before = Compare(raw[2], gt, 50.0);
   const DepthError after = Compare(filtered, gt, 50.0);
   std::printf("sim keyframe, SGBM depth vs GT: RMSE %.3f m, >1 m %.3f, density %.3f\n", before.rmse,

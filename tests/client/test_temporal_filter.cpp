@@ -112,7 +112,9 @@ TEST(TemporalFilter, LowersDepthErrorOnSyntheticStreet) {
   std::vector<DepthFrame> frames;
   for (int k = 0; k < 5; ++k) frames.push_back({poses[k], &noisy[k]});
   TemporalFilterStats stats;
-  const DepthImage filtered = TemporalFilter(frames, 2, cam, TemporalFilterConfig{}, &stats);
+  TemporalFilterConfig paper;  // the paper's alpha 4 (our default is 2)
+  paper.alpha = 4;
+  const DepthImage filtered = TemporalFilter(frames, 2, cam, paper, &stats);
   const Error2 before = Evaluate(noisy[2], gt[2]);
   const Error2 after = Evaluate(filtered, gt[2]);
   std::printf("temporal filter (alpha 4, delta_d 0.5 m): RMSE %.3f m -> %.3f m, density %.3f -> "

@@ -15,6 +15,9 @@ struct CovarianceCalibration {
   double within_3sigma_all = 0;   // over all axes
   double mean_nees = 0;           // e^T C^-1 e, expected 6 when calibrated
   double rms_over_sigma[6] = {};  // rms(e_i) / rms(sigma_i): 1 when calibrated, > 1 overconfident
+  // Factor on the covariance that would put 97% of the per-axis errors within 3 sigma
+  // (from the 97th percentile of |e_i| / sigma_i); 1 means calibrated as is.
+  double scale_for_97 = 1.0;
 };
 
 // Error e = LocalRight(T_gt, T_registered) (our right-perturbation tangent, as the covariance).
