@@ -8,6 +8,7 @@
 #include "mapdelta/vio/estimator.hpp"
 #include "mapdelta/vio/feature_tracker.hpp"
 #include "mapdelta/vio/initializer.hpp"
+#include "mapdelta/vio/stereo_rectifier.hpp"
 
 namespace mapdelta::vio {
 namespace {
@@ -68,6 +69,8 @@ struct StereoInertialOdometry::Impl {
   std::vector<KeyframeEstimate> finalized;
   StageTimes total;
   int frames = 0;
+  std::unique_ptr<StereoRectifier> rectifier;  // set for distorted / non-parallel input pairs
+  cv::Mat rectified[2];
 
   Impl(const VioConfig& c, const EurocCamera& c0, const EurocCamera& c1, const EurocImu& i)
       : config(c), cam0(c0), cam1(c1), noise(FlooredNoise(c, i.noise)), T_body_imu(i.T_body_imu),
@@ -129,8 +132,14 @@ struct StereoInertialOdometry::Impl {
 
 StereoInertialOdometry::StereoInertialOdometry(const VioConfig& config, const EurocCamera& cam0,
                                                const EurocCamera& cam1, const EurocImu& imu) {
-  CheckRectified(cam0, cam1);
-  impl_ = std::make_unique<Impl>(config, cam0, cam1, imu);
+  // Distorted or non-parallel pairs (real EuRoC) are rectified; the estimator then runs on the
+  // rectified cameras.
+  auto rectifier = MakeRectifierIfNeeded(cam0, cam1);
+  const EurocCamera& c0 = rectifier ? rectifier->cam0() : cam0;
+  const EurocCamera& c1 = rectifier ? rectifier->cam1() : cam1;
+  CheckRectified(c0, c1);
+  impl_ = std::make_unique<Impl>(config, c0, c1, imu);
+  impl_->rectifier = std::move(rectifier);
 }
 
 StereoInertialOdometry::~StereoInertialOdometry() = default;
@@ -157,8 +166,14 @@ FrameEstimate StereoInertialOdometry::AddStereoFrame(int64_t t_ns, const GrayIma
     throw Error(ErrorCode::kInvalidArgument, "vio: frame times must increase");
   }
   // 1. Front end.
-  const cv::Mat l(left.height, left.width, CV_8UC1, const_cast<uint8_t*>(left.data), left.stride_bytes);
-  const cv::Mat r(right.height, right.width, CV_8UC1, const_cast<uint8_t*>(right.data), right.stride_bytes);
+  cv::Mat l(left.height, left.width, CV_8UC1, const_cast<uint8_t*>(left.data), left.stride_bytes);
+  cv::Mat r(right.height, right.width, CV_8UC1, const_cast<uint8_t*>(right.data), right.stride_bytes);
+  if (m.rectifier) {
+    m.rectifier->Rectify(0, l, &m.rectified[0]);
+    m.rectifier->Rectify(1, r, &m.rectified[1]);
+    l = m.rectified[0];
+    r = m.rectified[1];
+  }
   const FrameFeatures features = m.Normalize(t_ns, m.tracker.Track(l, r));
   e.features = static_cast<int>(features.features.size());
   e.times.frontend_ms = MsSince(t_start);

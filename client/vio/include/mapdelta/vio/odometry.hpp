@@ -6,8 +6,9 @@
 //   FrameEstimate e = vio.AddStereoFrame(t_ns, left_view, right_view);
 //   if (e.initialized) use e.T_world_body;  // odometry world: z up, gravity -z
 //
-// Images must be rectified 8-bit grey (cam1 at +x of cam0, zero distortion); the cameras'
-// T_BS (sensor.yaml) define T_body_cam. Poses are of the body frame of the sequence
+// Images are 8-bit grey as the cameras deliver them; the cameras' T_BS (sensor.yaml) define
+// T_body_cam. A pair that is not already rectified (radial-tangential distortion, cameras not
+// parallel: real EuRoC) is rectified internally (stereo_rectifier.hpp) before the front end. Poses are of the body frame of the sequence
 // (the IMU's T_BS is honoured). The odometry world's origin and yaw are those of the body
 // when initialization succeeded.
 #include <Eigen/Core>
@@ -64,7 +65,8 @@ struct KeyframeEstimate {
 
 class StereoInertialOdometry {
  public:
-  // Throws Error(kUnsupported) for distorted or non-rectified cameras.
+  // Throws Error(kUnsupported) for pairs it cannot rectify (distortion models other than
+  // radial-tangential, cam1 not beside cam0).
   StereoInertialOdometry(const VioConfig& config, const EurocCamera& cam0,
                          const EurocCamera& cam1, const EurocImu& imu);
   ~StereoInertialOdometry();
