@@ -6,49 +6,23 @@
 // ground truth.
 #include <gtest/gtest.h>
 
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "mapdelta/common/ate.hpp"
+#include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/sim/config.hpp"
 #include "mapdelta/sim/generator.hpp"
-#include "mapdelta/vio/run_sequence.hpp"
-#include "support/temp_dir.hpp"
-#include "mapdelta/vio/feature_tracker.hpp"
-#include "mapdelta/vio/stereo_rectifier.hpp"
 #include "mapdelta/sim/sensor_rig.hpp"
-#include "mapdelta/common/depth_image.hpp"
-#include <opencv2/imgcodecs.hpp>
-
-namespace {
-// Until StereoInertialOdometry rectifies by itself: the same steps outside it.
-mapdelta::vio::SequenceRunResult RunRectified(const mapdelta::EurocSequence& seq, const mapdelta::vio::VioConfig& config) {
-  using namespace mapdelta;
-  vio::StereoRectifier r(seq.cam0, seq.cam1);
-  vio::StereoInertialOdometry odo(config, r.cam0(), r.cam1(), seq.imu);
-  vio::SequenceRunResult result;
-  size_t imu_index = 0;
-  const auto& imu = seq.imu_samples;
-  for (const auto& frame : seq.StereoFrames()) {
-    while (imu_index < imu.size() && imu[imu_index].t_ns <= frame.t_ns) odo.AddImu(imu[imu_index++]);
-    if (imu_index < imu.size()) odo.AddImu(imu[imu_index]);
-    cv::Mat l, rr;
-    r.Rectify(0, cv::imread(frame.left_path, cv::IMREAD_GRAYSCALE), &l);
-    r.Rectify(1, cv::imread(frame.right_path, cv::IMREAD_GRAYSCALE), &rr);
-    const auto e = odo.AddStereoFrame(frame.t_ns, {l.cols, l.rows, static_cast<int>(l.step), l.data},
-                                      {rr.cols, rr.rows, static_cast<int>(rr.step), rr.data});
-    ++result.processed;
-    if (e.reset) ++result.resets;
-    if (e.initialized) {
-      ++result.initialized;
-      result.frames.push_back({e.t_ns, e.T_world_body});
-    }
-  }
-  odo.Finish();
-  return result;
-}
-}  // namespace
+#include "mapdelta/vio/feature_tracker.hpp"
+#include "mapdelta/vio/run_sequence.hpp"
+#include "mapdelta/vio/stereo_rectifier.hpp"
+#include "support/temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace mapdelta;
@@ -141,7 +115,7 @@ TEST(VioEurocRig, SimulatedMh01SensorsSequence) {
   EXPECT_NEAR(seq.imu_samples.front().accel.x(), 9.81, 0.2);
   CheckStereoMatches(seq);
 
-  const vio::SequenceRunResult result = RunRectified(seq, vio::VioConfig{});
+  const vio::SequenceRunResult result = vio::RunSequence(seq, vio::VioConfig{});
   EXPECT_EQ(result.resets, 0);
   // Initialization: init_frames (10) over at least init_min_span_s (0.9 s) = 19 frames at 20 Hz.
   EXPECT_GE(result.initialized, result.processed - 22);
