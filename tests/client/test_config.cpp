@@ -12,7 +12,7 @@ TEST(ClientConfig, DefaultsFollowThePaper) {
   EXPECT_EQ(c.stereo.num_disparities, 128);
   EXPECT_EQ(c.stereo.reference_width, 800);
   EXPECT_DOUBLE_EQ(c.temporal_filter.delta_d_m, 0.5);
-  EXPECT_EQ(c.temporal_filter.alpha, 2);  // the paper's 4 is a config value (client/README.md)
+  EXPECT_EQ(c.temporal_filter.alpha, 3);  // the paper's 4 is a config value (client/README.md)
   EXPECT_EQ(c.local_cloud.keyframes, 5);
   EXPECT_DOUBLE_EQ(c.local_cloud.voxel_m, 0.4);
   EXPECT_DOUBLE_EQ(c.local_cloud.max_depth_m, 50.0);
