@@ -361,10 +361,18 @@ void SqliteStorage::FinishSession(int64_t session_id, const std::string& state,
                                   const std::optional<std::string>& registration_json,
                                   int64_t now_ms) {
   std::lock_guard lock(mutex_);
+  sql::Transaction tx(db_);
   sql::Stmt s(db_,
               "UPDATE sessions SET state = ?, registration_json = COALESCE(?, registration_json), "
               "committed_ms = ? WHERE id = ?");
   s.Bind(1, state).Bind(2, registration_json).Bind(3, now_ms).Bind(4, session_id).Run();
+  if (state == "committed") {
+    // The upload-time clouds only speed up the commit; once it is done they are dead weight
+    // (as large as the PNGs). A commit resumed after this point recomputes them.
+    sql::Stmt c(db_, "UPDATE keyframes SET cloud = NULL, cloud_params = NULL WHERE session_id = ?");
+    c.Bind(1, session_id).Run();
+  }
+  tx.Commit();
 }
 
 void SqliteStorage::PutSessionObserved(int64_t session_id, const Bytes& observed) {

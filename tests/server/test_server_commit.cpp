@@ -141,6 +141,10 @@ TEST_F(CommitPaths, FastPathEqualsSimplePath) {
   EXPECT_EQ(f["tiles_aggregated"], s["tiles_aggregated"]);
   EXPECT_EQ(f["tiles_classified"], s["tiles_classified"]);
   EXPECT_GT(f["new_points"].get<int>(), 0);
+  // A committed session's upload-time clouds are dropped (derived data, as large as the PNGs).
+  size_t clouds = 0;
+  fast_->storage().ForEachKeyframe(session_, 0, 1000, false, [&](const KeyframeRecord& k) { clouds += !k.cloud.empty(); });
+  EXPECT_EQ(clouds, 0u);
   EXPECT_GT(f["removed_points"].get<int>(), 0);
 
   // Aggregates and changes, tile by tile, byte for byte (changes decoded for a readable diff).

@@ -140,6 +140,7 @@ class Storage {
   // Returns the job id, or nullopt if the session is not open.
   virtual std::optional<int64_t> CommitSession(int64_t session_id, const std::string& params_json,
                                                int64_t now_ms) = 0;
+  // Sets the session's state; "committed" also drops the keyframes' upload-time clouds.
   virtual void FinishSession(int64_t session_id, const std::string& state,
                              const std::optional<std::string>& registration_json,
                              int64_t now_ms) = 0;
