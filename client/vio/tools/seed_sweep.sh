@@ -67,5 +67,5 @@ echo "ATE RMSE (SE3) over seeds: mean / max; resets (runs with a ground-truth at
 awk -F'\t' 'NR > 1 {
     k = $1 " " $3; n[k]++; s[k] += $4; if ($4 > m[k]) m[k] = $4
     if ($6 > ws[k]) ws[k] = $6; r[k] += $7; if ($8 > 0) j[k]++ }
-  END { printf "%-12s %5s %9s %9s %13s %7s %6s\n", "noise seq", "runs", "mean", "max", "worst segment", "resets", "jumps"
-        for (k in n) printf "%-12s %5d %9.3f %9.3f %13.3f %7d %6d\n", k, n[k], s[k] / n[k], m[k], ws[k], r[k], j[k] }' "$runs" | sort
+  END { for (k in n) printf "%-12s %5d %9.3f %9.3f %13.3f %7d %6d\n", k, n[k], s[k] / n[k], m[k], ws[k], r[k], j[k] }' "$runs" | sort |
+  { printf "%-12s %5s %9s %9s %13s %7s %6s\n" "noise seq" runs mean max "worst segment" resets jumps; cat; }
