@@ -140,11 +140,12 @@ std::vector<Eigen::Vector2d> PlanRoute(const StreetGrid& g, const std::vector<Ei
     // Reach one end, then traverse the segment to the other end.
     const bool via0 = !p0.empty() && (p1.empty() || p0.size() <= p1.size());
     std::vector<Node> path = via0 ? p0 : p1;
-    if (path.size() >= 2 && path[path.size() - 2] == (via0 ? s1 : s0)) {
-      // The path already arrives along the segment.
-    } else {
-      path.push_back(via0 ? s1 : s0);
-    }
+    // The node the path arrives from: `cur` itself when the end is its neighbour. Arriving
+    // from the segment's other end means the segment was just flown; going back would be a
+    // U-turn, which the spline turns into a 180 degree heading flip at zero speed.
+    const Node arrived_from = path.size() >= 2 ? path[path.size() - 2] : cur;
+    const Node other_end = via0 ? s1 : s0;
+    if (arrived_from != other_end) path.push_back(other_end);
     nodes.insert(nodes.end(), path.begin(), path.end());
   }
   // 4. Random walk without U-turns, preferring streets not flown yet, until long enough.
@@ -167,6 +168,9 @@ std::vector<Eigen::Vector2d> PlanRoute(const StreetGrid& g, const std::vector<Ei
     const Node next = pool[static_cast<size_t>(rng.Int(0, static_cast<int>(pool.size()) - 1))];
     flown.insert(std::minmax(cur, next));
     nodes.push_back(next);
+  }
+  for (size_t i = 2; i < nodes.size(); ++i) {
+    if (nodes[i] == nodes[i - 2]) throw Error(ErrorCode::kInternal, "route planner produced a U-turn");
   }
   std::vector<Eigen::Vector2d> route;
   for (const Node& n : nodes) route.push_back(g.Node(n.first, n.second));

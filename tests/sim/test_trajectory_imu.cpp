@@ -7,6 +7,7 @@
 
 #include "mapdelta/sim/generator.hpp"
 #include "mapdelta/sim/imu.hpp"
+#include "mapdelta/sim/random.hpp"
 #include "mapdelta/sim/trajectory.hpp"
 
 namespace mapdelta::sim {
@@ -105,9 +106,16 @@ TEST(SimImu, SpecificForceMatchesFiniteDifferencesOfGroundTruth) {
   }
 }
 
+// Every sequence of the tiny and paper presets: the S2 routes used to reverse at a segment
+// end (s0 -> s1 -> s0), which the spline flew as a stop and a 180 degree heading flip
+// between two IMU samples with zero gyro rate.
 TEST(SimTrajectory, ContinuousAccelerationAndBoundedRates) {
-  for (const char* name : {"S1_01", "S1_02"}) {
-    const SequencePlan plan = TinyPlan(name);
+  for (const char* preset : {"tiny", "paper"}) {
+    const SimConfig c = PresetConfig(preset);
+    const Scenes scenes = BuildScenes(c);
+    for (const std::string& seq : c.sequences) {
+    const SequencePlan plan = PlanSequence(c, scenes, seq);
+    const std::string name = std::string(preset) + " " + seq;
     const double knot = plan.trajectory.duration() / static_cast<double>(plan.trajectory.control().size() - 3);
     double max_rate = 0, min_speed = 1e9;
     for (double t = knot; t < plan.duration_s - knot; t += knot) {
@@ -123,7 +131,29 @@ TEST(SimTrajectory, ContinuousAccelerationAndBoundedRates) {
     EXPECT_LT(max_rate, 2.0) << name << ": yaw rate must stay bounded (rad/s)";
     EXPECT_GT(min_speed, 1.0) << name << ": the MAV never hovers (heading would be undefined)";
     EXPECT_GT(plan.length_m, 80.0);
+    }
   }
+}
+
+// The planner on its own, over many seeds and target sets: no route ever goes back the way
+// it came (consecutive edges a -> b -> a).
+TEST(SimTrajectory, RoutesNeverReverse) {
+  StreetGrid g;
+  g.xs = {0, 40, 80, 120};
+  g.ys = {0, 40, 80};
+  int routes = 0;
+  for (uint64_t seed = 1; seed <= 200; ++seed) {
+    Rng rng(seed);
+    std::vector<Eigen::Vector2d> targets;
+    for (int k = 0; k < 3; ++k) targets.emplace_back(rng.Uniform(-10, 130), rng.Uniform(-10, 90));
+    const std::vector<Eigen::Vector2d> route = PlanRoute(g, targets, 600.0, seed);
+    ASSERT_GE(route.size(), 3u);
+    for (size_t i = 2; i < route.size(); ++i) {
+      ASSERT_GT((route[i] - route[i - 2]).norm(), 1e-9) << "seed " << seed << " reverses at node " << i - 1;
+    }
+    ++routes;
+  }
+  EXPECT_EQ(routes, 200);
 }
 
 }  // namespace
