@@ -2,13 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <unordered_map>
 #include <limits>
 #include <vector>
 
-#include <opencv2/imgproc.hpp>
-
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/window_min.hpp"
 #include "observed_area_impl.hpp"
 
 namespace mapdelta {
@@ -30,31 +30,6 @@ void CheckParams(const PinholeCamera& camera, const DepthImage& depth, const Obs
                 "observed area: max_depth_m, free_ray_m, prefilter_voxel_m must be > 0, "
                 "pixel_stride >= 1 and free_ray_bound_window_px >= 0");
   }
-}
-
-// For free_ray_bound_window_px = W: per pixel, the smallest valid depth within +-W pixels
-// (infinity if none). A grey-scale erosion with a (2W+1)^2 rectangle is exactly that min
-// filter; OpenCV runs it separably. Invalid pixels are +inf so they never win; replicating the
-// border is exact for a min filter (the replicated edge pixel is inside the window anyway).
-std::vector<float> NearestDepthAround(const DepthImage& depth, int window_px) {
-  const float inf = std::numeric_limits<float>::infinity();
-  cv::Mat in(depth.height, depth.width, CV_32F);
-  for (int v = 0; v < depth.height; ++v) {
-    float* row = in.ptr<float>(v);
-    for (int u = 0; u < depth.width; ++u) {
-      const float d = depth.at(u, v);
-      row[u] = (std::isfinite(d) && d > 0.f) ? d : inf;
-    }
-  }
-  cv::Mat out;
-  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * window_px + 1, 2 * window_px + 1));
-  cv::erode(in, out, kernel, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
-  std::vector<float> result(static_cast<size_t>(depth.width) * depth.height);
-  for (int v = 0; v < depth.height; ++v) {
-    const float* row = out.ptr<float>(v);
-    std::copy(row, row + depth.width, result.begin() + static_cast<ptrdiff_t>(v) * depth.width);
-  }
-  return result;
 }
 
 octomap::point3d ToOcto(const Point& p) { return {p.x(), p.y(), p.z()}; }
@@ -99,21 +74,37 @@ class EndPointFilter {
   size_t last_slot_ = 0;
 };
 
+// An OcTreeKey packed into one integer, so that key sets are flat sorted vectors: sorting and
+// de-duplicating the ray keys costs less than inserting every one into OctoMap's hash KeySet
+// (22 % of a server commit's CPU went to that insert).
+uint64_t Pack(const octomap::OcTreeKey& k) {
+  return (static_cast<uint64_t>(k[0]) << 32) | (static_cast<uint64_t>(k[1]) << 16) | k[2];
+}
+octomap::OcTreeKey Unpack(uint64_t v) {
+  return octomap::OcTreeKey(static_cast<octomap::key_type>(v >> 32), static_cast<octomap::key_type>((v >> 16) & 0xffff),
+                            static_cast<octomap::key_type>(v & 0xffff));
+}
+void SortUnique(std::vector<uint64_t>& keys) {
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+}
+
 // Keys of the voxels each ray passes through (excluding its end voxel), in parallel: OctoMap's
 // own OpenMP path does nothing in Debian's build (see DESIGN.md), and computeRayKeys is const.
-octomap::KeySet RayKeys(const octomap::OcTree& tree, const octomap::point3d& origin,
-                        const PointCloud& ends) {
-  octomap::KeySet all;
+// Not de-duplicated: the caller sorts once.
+std::vector<uint64_t> RayKeys(const octomap::OcTree& tree, const octomap::point3d& origin, const PointCloud& ends) {
+  std::vector<uint64_t> all;
 #pragma omp parallel if (ends.size() > 4096)
   {
-    octomap::KeySet local;
+    std::vector<uint64_t> local;
     octomap::KeyRay ray;
 #pragma omp for schedule(dynamic, 64) nowait
     for (long i = 0; i < static_cast<long>(ends.size()); ++i) {
-      if (tree.computeRayKeys(origin, ToOcto(ends[i]), ray)) local.insert(ray.begin(), ray.end());
+      if (!tree.computeRayKeys(origin, ToOcto(ends[i]), ray)) continue;
+      for (const auto& key : ray) local.push_back(Pack(key));
     }
 #pragma omp critical(mapdelta_observed_ray_keys)
-    all.insert(local.begin(), local.end());
+    all.insert(all.end(), local.begin(), local.end());
   }
   return all;
 }
@@ -151,8 +142,12 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
   const float free_depth = static_cast<float>(params.free_ray_m);
   EndPointFilter hit_filter(static_cast<float>(params.prefilter_voxel_m));
   EndPointFilter free_filter(static_cast<float>(params.prefilter_voxel_m));
+  const int stride = params.pixel_stride;
+  const int nearest_cols = (camera.width + stride - 1) / stride;
+  // The smallest valid depth within +-W pixels, read only at the strided pixels (window_min.hpp:
+  // cv::erode with a 257x257 rectangle over the whole image was 26 % of a server commit's CPU).
   const std::vector<float> nearest = params.free_ray_bound_window_px > 0
-                                         ? NearestDepthAround(depth, params.free_ray_bound_window_px)
+                                         ? NearestDepthAround(depth, params.free_ray_bound_window_px, stride)
                                          : std::vector<float>();
   for (int v = 0; v < camera.height; v += params.pixel_stride) {
     const float y = (static_cast<float>(v) - cy) * inv_fy;
@@ -165,7 +160,7 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
       // around the pixel (nearest[] is +inf when the window holds no depth).
       const float no_depth = nearest.empty()
                                  ? free_depth
-                                 : std::min(free_depth, nearest[static_cast<size_t>(v) * camera.width + u]);
+                                 : std::min(free_depth, nearest[static_cast<size_t>(v / stride) * nearest_cols + u / stride]);
       const float z = hit ? d : (valid ? std::min(d, free_depth) : no_depth);
       const Point p_map = T * Point((static_cast<float>(u) - cx) * inv_fx * z, y * z, z);
       (hit ? hit_filter : free_filter).Add(p_map);
@@ -179,23 +174,26 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
   //    insertPointCloud does).
   auto& tree = impl_->tree;
   const octomap::point3d origin = ToOcto(T_map_cam.translation().cast<float>());
-  octomap::KeySet occupied;
+  std::vector<uint64_t> occupied;
   for (const auto& p : hits) {
     octomap::OcTreeKey key;
-    if (tree.coordToKeyChecked(ToOcto(p), key)) occupied.insert(key);
+    if (tree.coordToKeyChecked(ToOcto(p), key)) occupied.push_back(Pack(key));
   }
+  SortUnique(occupied);
   PointCloud all_ends = hits;
   all_ends.insert(all_ends.end(), free_ends.begin(), free_ends.end());
-  octomap::KeySet free = RayKeys(tree, origin, all_ends);
+  std::vector<uint64_t> free = RayKeys(tree, origin, all_ends);
   for (const auto& p : free_ends) {
     octomap::OcTreeKey key;
-    if (tree.coordToKeyChecked(ToOcto(p), key)) free.insert(key);
+    if (tree.coordToKeyChecked(ToOcto(p), key)) free.push_back(Pack(key));
   }
-  // 4. Update (lazily, then the inner nodes once).
-  for (const auto& key : free) {
-    if (!occupied.count(key)) tree.updateNode(key, false, true);
+  SortUnique(free);
+  // 4. Update (lazily, then the inner nodes once). Each key is updated once per keyframe, so the
+  //    order of the updates does not change the tree.
+  for (const uint64_t key : free) {
+    if (!std::binary_search(occupied.begin(), occupied.end(), key)) tree.updateNode(Unpack(key), false, true);
   }
-  for (const auto& key : occupied) tree.updateNode(key, true, true);
+  for (const uint64_t key : occupied) tree.updateNode(Unpack(key), true, true);
   tree.updateInnerOccupancy();
   tree.prune();
 }

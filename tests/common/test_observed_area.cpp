@@ -2,11 +2,16 @@
 // it (ray voxels) and the wall itself, not what lies behind it or outside the frustum.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <random>
+#include <utility>
 
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/observed_area.hpp"
+#include "mapdelta/common/window_min.hpp"
 
 namespace mapdelta {
 namespace {
@@ -40,6 +45,39 @@ Point InFrustum(std::mt19937& rng, float z_min, float z_max) {
   std::uniform_real_distribution<float> z(z_min, z_max), s(-0.6f, 0.6f);
   const float zz = z(rng);
   return {s(rng) * 0.8f * zz, s(rng) * 0.6f * zz, zz};  // half-angles: 0.8 and 0.6 (tan)
+}
+
+// The strided min filter against the definition (brute force over the clipped window), on
+// sparse random depth with holes, windows wider than the image, and strides 1-3.
+TEST(WindowMin, NearestDepthAroundMatchesBruteForce) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> depth_of(0.5f, 60.f), chance(0.f, 1.f);
+  for (const auto& [w, h] : {std::pair{37, 23}, std::pair{64, 9}, std::pair{5, 40}}) {
+    DepthImage depth(w, h);
+    for (auto& d : depth.depth_m) {
+      const float c = chance(rng);
+      d = c < 0.08f ? depth_of(rng) : (c < 0.1f ? std::numeric_limits<float>::quiet_NaN() : 0.f);
+    }
+    for (int window : {0, 1, 4, 13, 100}) {
+      for (int stride : {1, 2, 3}) {
+        const std::vector<float> got = NearestDepthAround(depth, window, stride);
+        const int cols = (w + stride - 1) / stride, rows = (h + stride - 1) / stride;
+        ASSERT_EQ(got.size(), static_cast<size_t>(rows * cols));
+        for (int v = 0; v < h; v += stride) {
+          for (int u = 0; u < w; u += stride) {
+            float expected = std::numeric_limits<float>::infinity();
+            for (int y = std::max(0, v - window); y <= std::min(h - 1, v + window); ++y)
+              for (int x = std::max(0, u - window); x <= std::min(w - 1, u + window); ++x) {
+                const float d = depth.at(x, y);
+                if (std::isfinite(d) && d > 0.f) expected = std::min(expected, d);
+              }
+            ASSERT_EQ(got[static_cast<size_t>(v / stride) * cols + u / stride], expected)
+                << w << "x" << h << " window " << window << " stride " << stride << " at " << u << "," << v;
+          }
+        }
+      }
+    }
+  }
 }
 
 TEST(ObservedArea, WallInFrontOfCameraAgreesWithGeometry) {
