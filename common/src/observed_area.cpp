@@ -9,6 +9,7 @@
 
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/window_min.hpp"
+#include "flat_key_set.hpp"
 #include "observed_area_impl.hpp"
 
 namespace mapdelta {
@@ -74,9 +75,7 @@ class EndPointFilter {
   size_t last_slot_ = 0;
 };
 
-// An OcTreeKey packed into one integer, so that key sets are flat sorted vectors: sorting and
-// de-duplicating the ray keys costs less than inserting every one into OctoMap's hash KeySet
-// (22 % of a server commit's CPU went to that insert).
+// An OcTreeKey packed into one integer (48 bits), for the flat key sets below.
 uint64_t Pack(const octomap::OcTreeKey& k) {
   return (static_cast<uint64_t>(k[0]) << 32) | (static_cast<uint64_t>(k[1]) << 16) | k[2];
 }
@@ -84,27 +83,22 @@ octomap::OcTreeKey Unpack(uint64_t v) {
   return octomap::OcTreeKey(static_cast<octomap::key_type>(v >> 32), static_cast<octomap::key_type>((v >> 16) & 0xffff),
                             static_cast<octomap::key_type>(v & 0xffff));
 }
-void SortUnique(std::vector<uint64_t>& keys) {
-  std::sort(keys.begin(), keys.end());
-  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-}
 
 // Keys of the voxels each ray passes through (excluding its end voxel), in parallel: OctoMap's
 // own OpenMP path does nothing in Debian's build (see DESIGN.md), and computeRayKeys is const.
-// Not de-duplicated: the caller sorts once.
-std::vector<uint64_t> RayKeys(const octomap::OcTree& tree, const octomap::point3d& origin, const PointCloud& ends) {
-  std::vector<uint64_t> all;
+detail::FlatKeySet RayKeys(const octomap::OcTree& tree, const octomap::point3d& origin, const PointCloud& ends) {
+  detail::FlatKeySet all(8 * ends.size());
 #pragma omp parallel if (ends.size() > 4096)
   {
-    std::vector<uint64_t> local;
+    detail::FlatKeySet local(4 * ends.size());
     octomap::KeyRay ray;
 #pragma omp for schedule(dynamic, 64) nowait
     for (long i = 0; i < static_cast<long>(ends.size()); ++i) {
       if (!tree.computeRayKeys(origin, ToOcto(ends[i]), ray)) continue;
-      for (const auto& key : ray) local.push_back(Pack(key));
+      for (const auto& key : ray) local.Insert(Pack(key));
     }
 #pragma omp critical(mapdelta_observed_ray_keys)
-    all.insert(all.end(), local.begin(), local.end());
+    local.ForEach([&](uint64_t key) { all.Insert(key); });
   }
   return all;
 }
@@ -174,26 +168,24 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
   //    insertPointCloud does).
   auto& tree = impl_->tree;
   const octomap::point3d origin = ToOcto(T_map_cam.translation().cast<float>());
-  std::vector<uint64_t> occupied;
+  detail::FlatKeySet occupied(hits.size());
   for (const auto& p : hits) {
     octomap::OcTreeKey key;
-    if (tree.coordToKeyChecked(ToOcto(p), key)) occupied.push_back(Pack(key));
+    if (tree.coordToKeyChecked(ToOcto(p), key)) occupied.Insert(Pack(key));
   }
-  SortUnique(occupied);
   PointCloud all_ends = hits;
   all_ends.insert(all_ends.end(), free_ends.begin(), free_ends.end());
-  std::vector<uint64_t> free = RayKeys(tree, origin, all_ends);
+  detail::FlatKeySet free = RayKeys(tree, origin, all_ends);
   for (const auto& p : free_ends) {
     octomap::OcTreeKey key;
-    if (tree.coordToKeyChecked(ToOcto(p), key)) free.push_back(Pack(key));
+    if (tree.coordToKeyChecked(ToOcto(p), key)) free.Insert(Pack(key));
   }
-  SortUnique(free);
   // 4. Update (lazily, then the inner nodes once). Each key is updated once per keyframe, so the
   //    order of the updates does not change the tree.
-  for (const uint64_t key : free) {
-    if (!std::binary_search(occupied.begin(), occupied.end(), key)) tree.updateNode(Unpack(key), false, true);
-  }
-  for (const uint64_t key : occupied) tree.updateNode(Unpack(key), true, true);
+  free.ForEach([&](uint64_t key) {
+    if (!occupied.Contains(key)) tree.updateNode(Unpack(key), false, true);
+  });
+  occupied.ForEach([&](uint64_t key) { tree.updateNode(Unpack(key), true, true); });
   tree.updateInnerOccupancy();
   tree.prune();
 }

@@ -11,19 +11,22 @@ namespace mapdelta {
 
 void SlidingWindowMin(const float* in, int in_step, int n, int w, float* out) {
   const float inf = std::numeric_limits<float>::infinity();
-  const int k = 2 * w + 1, padded = n + 2 * w;
-  // Padding both ends with +inf is the same as clipping the window, for a minimum.
-  thread_local std::vector<float> pre, suf;
+  const int k = 2 * w + 1;
+  // Padded to whole blocks with +inf on both ends: the same as clipping the window, for a min.
+  const int padded = ((n + 2 * w + k - 1) / k) * k;
+  thread_local std::vector<float> value, pre, suf;
+  value.assign(static_cast<size_t>(padded), inf);
   pre.resize(static_cast<size_t>(padded));
   suf.resize(static_cast<size_t>(padded));
-  const auto value = [&](int j) {
-    return (j < w || j >= w + n) ? inf : in[static_cast<ptrdiff_t>(j - w) * in_step];
-  };
-  for (int j = 0; j < padded; ++j) pre[j] = (j % k == 0) ? value(j) : std::min(pre[j - 1], value(j));
-  for (int j = padded - 1; j >= 0; --j) {
-    suf[j] = (j == padded - 1 || (j + 1) % k == 0) ? value(j) : std::min(suf[j + 1], value(j));
+  for (int i = 0; i < n; ++i) value[static_cast<size_t>(w + i)] = in[static_cast<ptrdiff_t>(i) * in_step];
+  for (int block = 0; block < padded; block += k) {
+    pre[block] = value[block];
+    for (int j = block + 1; j < block + k; ++j) pre[j] = std::min(pre[j - 1], value[j]);
+    suf[block + k - 1] = value[block + k - 1];
+    for (int j = block + k - 2; j >= block; --j) suf[j] = std::min(suf[j + 1], value[j]);
   }
-  // Output i's window is [i, i + 2w] in padded indices: at most two blocks.
+  // Output i's window is [i, i + 2w] in padded indices: a suffix of one block, a prefix of the
+  // next (or one whole block).
   for (int i = 0; i < n; ++i) out[i] = std::min(suf[i], pre[i + 2 * w]);
 }
 
