@@ -4,7 +4,10 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include <algorithm>
 #include <cmath>
+
+#include "mapdelta/vio/row_zncc.hpp"
 
 namespace mapdelta::vio {
 namespace {
@@ -28,7 +31,7 @@ void Compact(std::vector<T>* v, const std::vector<unsigned char>& keep) {
 }  // namespace
 
 void FeatureTracker::Reset() {
-  prev_left_.release();
+  prev_pyramid_.clear();
   points_.clear();
   ids_.clear();
   counts_.clear();
@@ -37,10 +40,17 @@ void FeatureTracker::Reset() {
 
 std::vector<TrackedFeature> FeatureTracker::Track(const cv::Mat& left, const cv::Mat& right) {
   stats_ = {};
-  if (!prev_left_.empty() && !points_.empty()) TrackTemporal(left);
+  const cv::Size window(config_.klt_window_px, config_.klt_window_px);
+  // Padded copies (tryReuseInputImage = false), never views of the caller's images: the left
+  // pyramid is kept as the next frame's previous one.
+  cv::buildOpticalFlowPyramid(left, left_pyramid_, window, config_.klt_levels, true, cv::BORDER_REFLECT_101,
+                              cv::BORDER_CONSTANT, false);
+  cv::buildOpticalFlowPyramid(right, right_pyramid_, window, 1, true, cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT,
+                              false);  // the stereo KLT uses one level
+  if (!prev_pyramid_.empty() && !points_.empty()) TrackTemporal(left);
   Detect(left);
   MatchStereo(left, right);
-  prev_left_ = left.clone();
+  std::swap(prev_pyramid_, left_pyramid_);
   std::vector<TrackedFeature> out(points_.size());
   for (size_t i = 0; i < points_.size(); ++i) {
     out[i].id = ids_[i];
@@ -57,9 +67,9 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
   std::vector<cv::Point2f> next, back;
   std::vector<unsigned char> status, status_back;
   std::vector<float> err;
-  cv::calcOpticalFlowPyrLK(prev_left_, left, points_, next, status, err, window, config_.klt_levels);
+  cv::calcOpticalFlowPyrLK(prev_pyramid_, left_pyramid_, points_, next, status, err, window, config_.klt_levels);
   back = points_;
-  cv::calcOpticalFlowPyrLK(left, prev_left_, next, back, status_back, err, window,
+  cv::calcOpticalFlowPyrLK(left_pyramid_, prev_pyramid_, next, back, status_back, err, window,
                            config_.klt_levels, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
   std::vector<unsigned char> keep(points_.size(), 0);
   for (size_t i = 0; i < points_.size(); ++i) {
@@ -123,6 +133,7 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   constexpr int kHalf = 5;
   std::vector<cv::Point2f> guess(n), candidates;
   std::vector<size_t> index;
+  std::vector<float> scores;
   for (size_t i = 0; i < n; ++i) {
     const int u = static_cast<int>(std::lround(points_[i].x));
     const int v = static_cast<int>(std::lround(points_[i].y));
@@ -136,23 +147,19 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     const int x0 = std::max(0, u - d_max - kHalf);
     const int x1 = u - d_min + kHalf + 1;
     if (x1 - x0 < 2 * kHalf + 1 || x1 > right.cols) continue;
-    cv::Mat scores;
-    cv::matchTemplate(right(cv::Rect(x0, v - kHalf, x1 - x0, 2 * kHalf + 1)),
-                      left(cv::Rect(u - kHalf, v - kHalf, 2 * kHalf + 1, 2 * kHalf + 1)), scores,
-                      cv::TM_CCOEFF_NORMED);
-    double best = 0;
-    cv::Point at;
-    cv::minMaxLoc(scores, nullptr, &best, nullptr, &at);
-    if (!(best >= config_.min_zncc)) continue;
+    // Right patches centred at x0 + kHalf .. x1 - 1 - kHalf; score k is centre x0 + kHalf + k.
+    RowZncc(left, right, u, v, kHalf, x0 + kHalf, x1 - 1 - kHalf, &scores);
+    const int at = static_cast<int>(std::max_element(scores.begin(), scores.end()) - scores.begin());
+    if (!(scores[static_cast<size_t>(at)] >= config_.min_zncc)) continue;
     // Sub-pixel peak by a parabola through the neighbours.
     double dx = 0;
-    if (at.x > 0 && at.x + 1 < scores.cols) {
-      const float l = scores.at<float>(0, at.x - 1), c = scores.at<float>(0, at.x),
-                  r = scores.at<float>(0, at.x + 1);
+    if (at > 0 && at + 1 < static_cast<int>(scores.size())) {
+      const float l = scores[static_cast<size_t>(at - 1)], c = scores[static_cast<size_t>(at)],
+                  r = scores[static_cast<size_t>(at + 1)];
       const double denom = l - 2 * c + r;
       if (std::abs(denom) > 1e-9) dx = std::clamp(0.5 * (l - r) / denom, -0.5, 0.5);
     }
-    const double x_right = x0 + at.x + dx + kHalf + (points_[i].x - u);
+    const double x_right = x0 + at + dx + kHalf + (points_[i].x - u);
     guess[i] = cv::Point2f(static_cast<float>(x_right), points_[i].y);
     candidates.push_back(points_[i]);
     index.push_back(i);
@@ -164,10 +171,10 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   std::vector<unsigned char> status, status_back;
   std::vector<float> err;
   const cv::Size window(config_.klt_window_px, config_.klt_window_px);
-  cv::calcOpticalFlowPyrLK(left, right, candidates, refined, status, err, window, 1, {},
+  cv::calcOpticalFlowPyrLK(left_pyramid_, right_pyramid_, candidates, refined, status, err, window, 1, {},
                            cv::OPTFLOW_USE_INITIAL_FLOW);
   back = candidates;
-  cv::calcOpticalFlowPyrLK(right, left, refined, back, status_back, err, window, 1, {},
+  cv::calcOpticalFlowPyrLK(right_pyramid_, left_pyramid_, refined, back, status_back, err, window, 1, {},
                            cv::OPTFLOW_USE_INITIAL_FLOW);
   // 3. Row and consistency checks.
   for (size_t k = 0; k < index.size(); ++k) {

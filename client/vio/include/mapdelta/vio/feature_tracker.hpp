@@ -45,7 +45,9 @@ class FeatureTracker {
 
   TrackerConfig config_;
   TrackerStats stats_;
-  cv::Mat prev_left_;
+  // KLT image pyramids with their derivatives, built once per image: calcOpticalFlowPyrLK on
+  // plain images rebuilds both pyramids and the derivatives in each of its four calls per frame.
+  std::vector<cv::Mat> prev_pyramid_, left_pyramid_, right_pyramid_;
   std::vector<cv::Point2f> points_;
   std::vector<uint64_t> ids_;
   std::vector<int> counts_;
