@@ -1,15 +1,24 @@
 // AlignGicp: Levenberg-Marquardt on SE(3) over GICP correspondences, then the covariance.
 //
 // Steps:
-//  1. Linearize at T: for each source point find the nearest target point (k-d tree); keep it
-//     if closer than max_correspondence_m; accumulate H = sum J^T W J, b = sum J^T W r,
-//     B = sum g g^T (g = J^T W r) and the error sum r^T W r, in parallel ranges.
+//  1. Linearize at T: for each source point find the nearest target point (k-d tree, through
+//     CorrespondenceCache); keep it if closer than max_correspondence_m; accumulate
+//     H = sum J^T W J, b = sum J^T W r, B = sum g g^T (g = J^T W r) and the error sum r^T W r,
+//     in parallel ranges (linearization.hpp: the same sums, computed in the source frame).
 //  2. Solve (H + lambda diag(H)) delta = -b. A step below the eps thresholds ends the loop.
 //  3. Evaluate the error of the SAME correspondences at T (+) delta (a fair comparison: a
 //     new search could change the set of terms); accept if it decreased
 //     (lambda /= 10) else lambda *= 10 and retry.
 //  4. Accepted: re-linearize at the new pose with fresh correspondences; repeat from 2.
 //  5. Covariance from the last linearization (see RegistrationResult::covariance).
+// Steps 3 and 4 are one pass over the source points (Pass): at the candidate pose each point
+// gets the weight of its old correspondence (for the step test) and its new correspondence,
+// which is usually the same one, so W is computed once for both. A rejected step throws the
+// new linearization away, and the next candidates at that pose get a test-only pass (at the
+// minimum several are rejected in a row). The weight is always computed at the candidate's
+// rotation:
+// reusing the last linearization's W in the step test (cheaper) let LM cycle without
+// converging in 1 of 60 noisy trials.
 // Convergence: a step below the eps thresholds, or a limit cycle. On noisy stereo clouds the
 // nearest-neighbour assignment can alternate between a few sets, each step undoing the last
 // (measured on the simulator's local clouds: a period-4 cycle of 0.6 mm steps that ran into the
@@ -18,134 +27,119 @@
 // accepted poses can only keep revisiting them: that is the minimum, reported as converged.
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <chrono>
 #include <cmath>
 #include <numeric>
 
+#include "correspondence_cache.hpp"
+#include "gicp_cloud_access.hpp"
+#include "linearization.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
-#include "mapdelta/common/registration/gicp_factor.hpp"
 #include "mapdelta/common/registration/se3_tangent.hpp"
 #include "parallel.hpp"
 
 namespace mapdelta {
 namespace {
 
+using detail::Linearization;
+
 constexpr double kInitialLambda = 1e-6;
 constexpr double kMaxLambda = 1e6;
 constexpr double kMinLambda = 1e-12;
 // Variance given to directions the correspondences do not constrain at all (rad^2 or m^2).
 constexpr double kUnobservedVariance = 1e6;
+// After a rejected step, lambda is raised at least to this: below it the damped step differs
+// from the rejected one by < 0.1% and would be rejected again. Measured on bench_registration:
+// at the minimum a 0.6 mm step (eps 0.5 mm) was rejected 8 times from lambda 1e-9 to 1e-2.
+constexpr double kRejectedLambdaFloor = 1e-3;
 // Accepted poses remembered for the limit-cycle test.
 constexpr size_t kCycleMemory = 8;
+constexpr uint32_t kNone = detail::CorrespondenceCache::kNone;
 
-struct Linearization {
-  Matrix6d H = Matrix6d::Zero();
-  Vector6d b = Vector6d::Zero();
-  Matrix6d B = Matrix6d::Zero();  // sum of g g^T for the sandwich covariance
-  double error = 0;
-  double distance_sum = 0;
-  size_t inliers = 0;
+// One pass at a pose: the linearization with fresh correspondences and, if there were
+// earlier correspondences, their error at this pose (the step test).
+struct PassResult {
+  Linearization lin;
+  double error_old = 0;
 };
 
 class Problem {
  public:
   Problem(const GicpCloud& target, const GicpCloud& source, const GicpParams& params)
       : target_(target), source_(source), params_(params),
-        correspondence_(source.size(), kNone) {}
+        tree_(detail::GicpCloudAccess::Tree(target)),
+        cache_(source.size(), static_cast<float>(params.max_correspondence_m)),
+        accepted_(source.size(), kNone), candidate_(source.size(), kNone) {}
 
-  // Step 1: fresh correspondences at T and the Gauss-Newton system.
-  Linearization Linearize(const SE3& T) {
-    const float max_distance = static_cast<float>(params_.max_correspondence_m);
+  // What a pass over the source points computes at a pose.
+  enum class Work {
+    kLinearize,      // fresh correspondences and the Gauss-Newton system
+    kStepTest,       // only the error of the accepted correspondences
+    kStepTestAndLinearize,
+  };
+
+  PassResult Pass(const SE3& T, Work work) {
+    const auto start = std::chrono::steady_clock::now();
+    const bool test = work != Work::kLinearize, linearize = work != Work::kStepTest;
+    const Eigen::Matrix3d Rt = T.linear().transpose();
+    const Eigen::Isometry3f Tf = T.cast<float>();
+    const auto& tp = target_.points();
+    const auto& tc = target_.covariances();
+    const auto& sp = source_.points();
+    const auto& sc = source_.covariances();
     auto parts = detail::ParallelRanges(
-        source_.size(), params_.num_threads, Linearization{},
-        [&](size_t begin, size_t end, Linearization& lin) {
-          Eigen::Matrix<double, 3, 6> J;
+        source_.size(), params_.num_threads, PassResult{},
+        [&](size_t begin, size_t end, PassResult& part) {
           for (size_t i = begin; i < end; ++i) {
-            const Eigen::Vector3d s = source_.points()[i].cast<double>();
+            const Eigen::Vector3d s = sp[i].cast<double>();
             const Eigen::Vector3d Ts = T * s;
-            size_t j = 0;
-            float distance = 0;
-            if (!FindCorrespondence(i, Ts.cast<float>(), max_distance, &j, &distance)) {
-              correspondence_[i] = kNone;
-              continue;
+            const uint32_t old_j = test ? accepted_[i] : kNone;
+            Eigen::Matrix3d W_old;
+            if (old_j != kNone) {
+              W_old = detail::SourceFrameWeight(Rt, tc[old_j], sc[i]);
+              part.error_old += detail::WeightedError(W_old, Rt * (tp[old_j].cast<double>() - Ts));
             }
-            correspondence_[i] = j;
-            const Eigen::Vector3d r =
-                GicpResidual(target_.points()[j].cast<double>(), s, T, &J);
-            const Eigen::Matrix3d W = Weight(i, j, T.linear());
-            const Eigen::Matrix<double, 6, 3> JtW = J.transpose() * W;
-            const Vector6d g = JtW * r;
-            lin.H.noalias() += JtW * J;
-            lin.b += g;
-            lin.B.noalias() += g * g.transpose();
-            lin.error += r.dot(W * r);
-            lin.distance_sum += distance;
-            ++lin.inliers;
+            if (!linearize) continue;
+            float distance = 0;
+            const uint32_t j = cache_.Find(i, Tf * sp[i], i > begin ? i - 1 : kNone, tp, tree_,
+                                           &distance);
+            candidate_[i] = j;
+            if (j == kNone) continue;
+            const Eigen::Matrix3d W =
+                j == old_j ? W_old : detail::SourceFrameWeight(Rt, tc[j], sc[i]);
+            detail::AddTerm(s, Rt * (tp[j].cast<double>() - Ts), W, distance, &part.lin);
           }
         });
-    Linearization total;
+    PassResult total;
+    MD_LOG(kDebug, "AlignGicp: pass (" << (test ? "step test" : "") << (test && linearize ? ", " : "")
+                                       << (linearize ? "linearize" : "") << ") "
+                                       << 1e3 * std::chrono::duration<double>(
+                                                    std::chrono::steady_clock::now() - start)
+                                                    .count()
+                                       << " ms, " << cache_.searches() << " searches so far");
     for (const auto& p : parts) {
-      total.H += p.H;
-      total.b += p.b;
-      total.B += p.B;
-      total.error += p.error;
-      total.distance_sum += p.distance_sum;
-      total.inliers += p.inliers;
+      total.lin.Add(p.lin);
+      total.error_old += p.error_old;
     }
+    detail::CompleteSymmetric(&total.lin);
     return total;
   }
 
-  // Step 3: error of the current correspondences at T. W is recomputed at T: reusing the
-  // last linearization's W (cheaper) let LM cycle without converging in 1 of 60 noisy trials.
-  double ErrorWithFixedCorrespondences(const SE3& T) const {
-    auto parts = detail::ParallelRanges(
-        source_.size(), params_.num_threads, 0.0, [&](size_t begin, size_t end, double& e) {
-          for (size_t i = begin; i < end; ++i) {
-            const size_t j = correspondence_[i];
-            if (j == kNone) continue;
-            const Eigen::Vector3d r = GicpResidual(target_.points()[j].cast<double>(),
-                                                   source_.points()[i].cast<double>(), T,
-                                                   nullptr);
-            e += r.dot(Weight(i, j, T.linear()) * r);
-          }
-        });
-    return std::accumulate(parts.begin(), parts.end(), 0.0);
-  }
+  // The last pass's correspondences become the accepted ones.
+  void Accept() { accepted_.swap(candidate_); }
+
+  size_t searches() const { return cache_.searches(); }
 
  private:
-  static constexpr size_t kNone = static_cast<size_t>(-1);
-
-  // Nearest target point within max_distance. Last iteration's match, if still within range,
-  // bounds the k-d tree search (steps are small, so it is usually near-optimal already): the
-  // same exact nearest neighbour, found with much less backtracking.
-  bool FindCorrespondence(size_t i, const Point& query, float max_distance, size_t* j,
-                          float* distance) const {
-    float bound = max_distance;
-    bool have_previous = false;
-    const size_t previous = correspondence_[i];
-    if (previous != kNone) {
-      const float d = (target_.points()[previous] - query).norm();
-      if (d <= max_distance) {
-        bound = d;
-        *j = previous;
-        *distance = d;
-        have_previous = true;
-      }
-    }
-    // Writes j and distance only when it finds a strictly closer point.
-    return target_.NearestWithin(query, bound, j, distance) || have_previous;
-  }
-
-  Eigen::Matrix3d Weight(size_t i, size_t j, const Eigen::Matrix3d& R) const {
-    return GicpWeight(target_.covariances()[j].cast<double>(),
-                      source_.covariances()[i].cast<double>(), R);
-  }
-
   const GicpCloud& target_;
   const GicpCloud& source_;
   const GicpParams& params_;
-  std::vector<size_t> correspondence_;  // per source point: target index or kNone
+  const detail::KdTree& tree_;
+  detail::CorrespondenceCache cache_;
+  std::vector<uint32_t> accepted_;   // per source point: target index or kNone
+  std::vector<uint32_t> candidate_;  // the same for the last pass
 };
 
 bool SmallStep(const Vector6d& delta, const GicpParams& params) {
@@ -213,7 +207,8 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
 
   Problem problem(target, source, params);
   SE3 T = init_T_target_source;
-  Linearization lin = problem.Linearize(T);
+  Linearization lin = problem.Pass(T, Problem::Work::kLinearize).lin;
+  problem.Accept();
   double lambda = kInitialLambda;
   bool converged = false;
   int iteration = 0;
@@ -221,6 +216,9 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
   for (; iteration < params.max_iterations && !converged; ++iteration) {
     if (lin.inliers < 6) break;
     bool accepted = false;
+    // The first candidate at a pose is usually accepted: test it and linearize there in one
+    // pass. After a rejection, further candidates get the cheaper test-only pass.
+    bool rejected = false;
     while (!accepted && !converged) {
       Matrix6d A = lin.H;
       A.diagonal() += lambda * lin.H.diagonal().cwiseMax(1e-9);
@@ -234,11 +232,14 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
                                              << delta.head<3>().norm() << " rad " << delta.tail<3>().norm()
                                              << " m, error " << lin.error << ", inliers " << lin.inliers);
       const SE3 candidate = RetractRight(T, delta);
-      if (problem.ErrorWithFixedCorrespondences(candidate) < lin.error) {
+      PassResult pass = problem.Pass(candidate, rejected ? Problem::Work::kStepTest
+                                                         : Problem::Work::kStepTestAndLinearize);
+      if (pass.error_old < lin.error) {
         T = candidate;
         lambda = std::max(lambda / 10.0, kMinLambda);
         accepted = true;
-        lin = problem.Linearize(T);
+        lin = rejected ? problem.Pass(T, Problem::Work::kLinearize).lin : pass.lin;
+        problem.Accept();
         // The previous pose is one small step away by construction; a revisit of an older one
         // is a cycle of correspondence sets.
         converged = SmallStep(delta, params) ||
@@ -249,7 +250,8 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
         visited.push_back(T);
         if (visited.size() > kCycleMemory) visited.erase(visited.begin());
       } else {
-        lambda *= 10.0;
+        rejected = true;
+        lambda = std::max(lambda * 10.0, kRejectedLambdaFloor);
         // Steps ~1e-6 of Gauss-Newton's that still do not descend: a numerical minimum.
         if (lambda > kMaxLambda) converged = true;
       }
@@ -268,7 +270,8 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
   if (lin.inliers >= 6) result.covariance = SandwichCovariance(lin, params.covariance_scale);
   MD_LOG(kDebug, "AlignGicp: converged=" << result.converged << " iterations=" << iteration
                                          << " inliers=" << lin.inliers << "/" << source.size()
-                                         << " fitness=" << result.fitness_m << " m");
+                                         << " fitness=" << result.fitness_m << " m, "
+                                         << problem.searches() << " searches");
   return result;
 }
 

@@ -1,12 +1,14 @@
 // GicpCloud: downsampling, per-point plane-regularized covariances, k-d tree.
 #include <cmath>
+#include <limits>
+#include <mutex>
 #include <string>
 
 #include "mapdelta/common/error.hpp"
-#include "mapdelta/common/neighbor_index.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
 #include "covariance_estimation.hpp"
+#include "gicp_cloud_access.hpp"
 
 namespace mapdelta {
 namespace {
@@ -35,11 +37,25 @@ void ValidateGicpParams(const GicpParams& p) {
 }
 
 struct GicpCloud::Impl {
-  PointCloud points;  // declared before index: the index references it
-  NeighborIndex index;
+  PointCloud points;
   std::vector<Eigen::Matrix3f> covariances;
-  explicit Impl(PointCloud cloud) : points(std::move(cloud)), index(points) {}
+  explicit Impl(PointCloud cloud) : points(std::move(cloud)) {}
+
+  // Built on first use: 0.3-0.5 ms for 6k points, which a source cloud whose covariances
+  // come from voxel blocks never needs.
+  const detail::KdTree& Tree() const {
+    std::call_once(tree_built_, [this] { tree_ = detail::KdTree(points); });
+    return tree_;
+  }
+
+ private:
+  mutable std::once_flag tree_built_;
+  mutable detail::KdTree tree_;
 };
+
+namespace detail {
+const KdTree& GicpCloudAccess::Tree(const GicpCloud& cloud) { return cloud.impl_->Tree(); }
+}  // namespace detail
 
 GicpCloud::GicpCloud(const PointCloud& cloud, const GicpParams& params) {
   ValidateGicpParams(params);
@@ -53,12 +69,11 @@ GicpCloud::GicpCloud(const PointCloud& cloud, const GicpParams& params) {
   impl_ = std::make_unique<Impl>(std::move(points));
   const size_t k = static_cast<size_t>(params.k_neighbors);
   if (params.covariance_neighborhood == CovarianceNeighborhood::kVoxelBlock && params.voxel_m > 0) {
-    impl_->covariances =
-        detail::CovariancesVoxelBlock(impl_->points, impl_->index,
-                                      kVoxelBlockCellFactor * params.voxel_m, k, params.num_threads);
+    impl_->covariances = detail::CovariancesVoxelBlock(
+        impl_->points, kVoxelBlockCellFactor * params.voxel_m, params.num_threads);
   } else {
     impl_->covariances =
-        detail::CovariancesKNearest(impl_->points, impl_->index, k, params.num_threads);
+        detail::CovariancesKNearest(impl_->points, impl_->Tree(), k, params.num_threads);
   }
 }
 
@@ -70,12 +85,13 @@ size_t GicpCloud::size() const { return impl_->points.size(); }
 const PointCloud& GicpCloud::points() const { return impl_->points; }
 const std::vector<Eigen::Matrix3f>& GicpCloud::covariances() const { return impl_->covariances; }
 bool GicpCloud::Nearest(const Point& query, size_t* index, float* distance) const {
-  return impl_->index.Nearest(query, index, distance);
+  return impl_->Tree().NearestWithin(query, std::numeric_limits<float>::infinity(), index,
+                                     distance);
 }
 
 bool GicpCloud::NearestWithin(const Point& query, float max_distance, size_t* index,
                               float* distance) const {
-  return impl_->index.NearestWithin(query, max_distance, index, distance);
+  return impl_->Tree().NearestWithin(query, max_distance, index, distance);
 }
 
 }  // namespace mapdelta

@@ -19,6 +19,9 @@
 #include "mapdelta/common/pose.hpp"
 
 namespace mapdelta {
+namespace detail {
+struct GicpCloudAccess;  // AlignGicp's access to the search structures (gicp_cloud_access.hpp)
+}  // namespace detail
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
@@ -26,8 +29,9 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 // Which points shape each point's covariance.
 enum class CovarianceNeighborhood {
   kKNearest,    // the k_neighbors nearest points (k-d tree): exact, ~2 us per point
-  // The points in the 3x3x3 voxel-hash cells (edge kVoxelBlockCellFactor * voxel_m) around
-  // the point's cell; ~10x cheaper, falls back to k nearest where the block is sparse. Needs
+  // The points in the 3x3x3 voxel cells (edge kVoxelBlockCellFactor * voxel_m) around the
+  // point's cell; ~20x cheaper; a block of fewer than 6 points has no usable shape and gets
+  // the isotropic unit covariance (as a shapeless k-nearest neighbourhood does). Needs
   // voxel_m > 0 (the cell follows the point spacing), else kKNearest is used.
   kVoxelBlock,
 };
@@ -38,7 +42,7 @@ inline constexpr double kVoxelBlockCellFactor = 2.0;
 struct GicpParams {
   int max_iterations = 64;            // outer (linearization) iterations
   double max_correspondence_m = 2.0;  // source points farther from the target are outliers
-  int k_neighbors = 20;               // neighbours for each point's covariance (>= 5)
+  int k_neighbors = 20;               // neighbours for each point's covariance (>= 5; kKNearest)
   CovarianceNeighborhood covariance_neighborhood = CovarianceNeighborhood::kVoxelBlock;
   double voxel_m = 0.0;               // > 0: voxel-downsample source and target first
   double rotation_eps_rad = 1e-4;     // converged when a step rotates less than this ...
@@ -75,8 +79,10 @@ struct RegistrationResult {
 };
 
 // A cloud prepared for GICP: optionally voxel-downsampled, non-finite points dropped,
-// per-point plane-regularized covariances and a k-d tree. Build a target once and align many
-// sources to it (a prior-map tile, a session cloud). Movable; immutable after construction.
+// per-point plane-regularized covariances and a k-d tree (built on first use: a source cloud
+// whose covariances come from voxel blocks never needs one). Build a target once and align
+// many sources to it (a prior-map tile, a session cloud). Movable; immutable after
+// construction and safe to share between threads.
 class GicpCloud {
  public:
   // Uses params.voxel_m, k_neighbors, num_threads. Clouds smaller than k_neighbors use all points.
@@ -95,6 +101,7 @@ class GicpCloud {
   bool NearestWithin(const Point& query, float max_distance, size_t* index, float* distance) const;
 
  private:
+  friend struct detail::GicpCloudAccess;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
