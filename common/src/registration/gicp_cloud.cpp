@@ -6,9 +6,9 @@
 
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
-#include "mapdelta/common/voxel_grid.hpp"
 #include "covariance_estimation.hpp"
 #include "gicp_cloud_access.hpp"
+#include "voxel_centroids.hpp"
 
 namespace mapdelta {
 namespace {
@@ -61,7 +61,7 @@ GicpCloud::GicpCloud(const PointCloud& cloud, const GicpParams& params) {
   ValidateGicpParams(params);
   PointCloud points;
   if (params.voxel_m > 0) {
-    points = VoxelDownsample(cloud, static_cast<float>(params.voxel_m));  // skips non-finite
+    points = detail::VoxelCentroids(cloud, static_cast<float>(params.voxel_m));  // skips non-finite
   } else {
     points = cloud;
     RemoveNonFinite(&points);
