@@ -3,6 +3,7 @@
 // block sweep and the source-frame linearization.
 #include <gtest/gtest.h>
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <limits>
 #include <random>
@@ -158,6 +159,33 @@ TEST(VoxelCentroids, EqualVoxelDownsample) {
     const PointCloud actual = sorted(VoxelCentroids(cloud, leaf));
     ASSERT_EQ(actual.size(), expected.size()) << "leaf " << leaf;
     for (size_t i = 0; i < actual.size(); ++i) ASSERT_EQ(actual[i], expected[i]) << "leaf " << leaf;
+  }
+}
+
+// The closed-form plane regularization against Eigen's full eigen decomposition, for planes,
+// strips, lines and blobs: eigenvalues (1e-3, 1, 1) along the same directions.
+TEST(PlaneRegularization, MatchesEigenDecomposition) {
+  std::mt19937 rng(29);
+  std::normal_distribution<double> n(0, 1);
+  const std::vector<Eigen::Vector3d> shapes = {
+      {1, 1, 1e-4}, {1, 0.05, 1e-3}, {1, 1e-3, 1e-3}, {1, 1e-9, 0}, {1, 0.7, 0.5}, {1, 1, 1}};
+  for (int trial = 0; trial < 200; ++trial) {
+    Eigen::Matrix3d Q = Eigen::Matrix3d::Identity();
+    for (int k = 0; k < 9; ++k) Q(k / 3, k % 3) = n(rng);
+    Q = Eigen::HouseholderQR<Eigen::Matrix3d>(Q).householderQ();
+    const Eigen::Vector3d shape = shapes[trial % shapes.size()] * std::exp(3 * n(rng));
+    const Eigen::Matrix3d A = Q * shape.asDiagonal() * Q.transpose();
+    const Eigen::Matrix3d C = RegularizePlaneCovariance(A);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> of_c(C);
+    EXPECT_NEAR(of_c.eigenvalues()(0), kPlaneNormalEigenvalue, 1e-9);
+    EXPECT_NEAR(of_c.eigenvalues()(1), 1.0, 1e-9);
+    EXPECT_NEAR(of_c.eigenvalues()(2), 1.0, 1e-9);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> of_a(A);
+    const Eigen::Vector3d values = of_a.eigenvalues();
+    if (values(1) - values(0) > 1e-3 * values(2)) {  // a defined normal: the same one
+      const Eigen::Vector3d normal = of_a.eigenvectors().col(0);
+      EXPECT_NEAR(normal.dot(C * normal), kPlaneNormalEigenvalue, 1e-9) << "trial " << trial;
+    }
   }
 }
 

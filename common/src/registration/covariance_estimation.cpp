@@ -10,27 +10,35 @@
 namespace mapdelta::detail {
 namespace {
 
+// Count, sum (x, y, z) and sum of products (xx, xy, xz, yy, yz, zz) of points: one vector of
+// 10 doubles, so that merging cells is one vector addition.
 struct Moments {
-  double n = 0;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+  using Vector10d = Eigen::Matrix<double, 10, 1>;
+  Vector10d v = Vector10d::Zero();
   void Add(const Eigen::Vector3d& p) {
-    n += 1;
-    sum += p;
-    outer.noalias() += p * p.transpose();
+    const double x = p.x(), y = p.y(), z = p.z();
+    v(0) += 1;
+    v(1) += x;
+    v(2) += y;
+    v(3) += z;
+    v(4) += x * x;
+    v(5) += x * y;
+    v(6) += x * z;
+    v(7) += y * y;
+    v(8) += y * z;
+    v(9) += z * z;
   }
-  void Add(const Moments& m) {
-    n += m.n;
-    sum += m.sum;
-    outer += m.outer;
-  }
+  void Add(const Moments& m) { v += m.v; }
+  double n() const { return v(0); }
 };
 
 // Sample covariance from moments, plane-regularized; isotropic unit when shapeless.
 Eigen::Matrix3f Regularized(const Moments& m) {
-  if (m.n < 5) return Eigen::Matrix3f::Identity();
-  const Eigen::Vector3d mean = m.sum / m.n;
-  const Eigen::Matrix3d cov = m.outer / m.n - mean * mean.transpose();
+  if (m.n() < 5) return Eigen::Matrix3f::Identity();
+  const Eigen::Vector3d mean = m.v.segment<3>(1) / m.n();
+  Eigen::Matrix3d outer;
+  outer << m.v(4), m.v(5), m.v(6), m.v(5), m.v(7), m.v(8), m.v(6), m.v(8), m.v(9);
+  const Eigen::Matrix3d cov = outer / m.n() - mean * mean.transpose();
   if (!(cov.trace() > 1e-12) || !cov.allFinite()) return Eigen::Matrix3f::Identity();
   return RegularizePlaneCovariance(cov).cast<float>();
 }
@@ -78,7 +86,7 @@ std::vector<Eigen::Matrix3f> CovariancesVoxelBlock(const PointCloud& points, dou
   std::vector<Eigen::Matrix3f> cell_cov(cells.size());
   ParallelRanges(cells.size(), num_threads, 0, [&](size_t begin, size_t end, int&) {
     for (size_t c = begin; c < end; ++c) {
-      cell_cov[c] = blocks[c].n < kMinBlockPoints ? Eigen::Matrix3f::Identity()
+      cell_cov[c] = blocks[c].n() < kMinBlockPoints ? Eigen::Matrix3f::Identity()
                                                   : Regularized(blocks[c]);
     }
   });

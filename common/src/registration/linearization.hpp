@@ -44,11 +44,15 @@ inline Eigen::Matrix3d InverseSymmetric3(const Eigen::Matrix3d& C) {
   return W * inv_det;
 }
 
-// The source-frame weight W' = (R^T C_t R + C_s)^-1.
+// The source-frame weight W' = (R^T C_t R + C_s)^-1. Explicit temporaries: with GCC 12 -O3,
+// C.noalias() += Rt * Ct.cast<double>() * Rt.transpose() came out wrong by ~1e-9 (relative)
+// in some inlining contexts (found by test_gicp_internals; not seen at -O1/-O2).
 inline Eigen::Matrix3d SourceFrameWeight(const Eigen::Matrix3d& Rt, const Eigen::Matrix3f& Ct,
                                          const Eigen::Matrix3f& Cs) {
-  Eigen::Matrix3d C = Cs.cast<double>();
-  C.noalias() += Rt * Ct.cast<double>() * Rt.transpose();
+  const Eigen::Matrix3d Ctd = Ct.cast<double>();
+  const Eigen::Matrix3d RtC = Rt * Ctd;
+  Eigen::Matrix3d C = RtC * Rt.transpose();
+  C += Cs.cast<double>();
   return InverseSymmetric3(C);
 }
 

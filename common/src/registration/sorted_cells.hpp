@@ -45,7 +45,7 @@ class SortedCells {
       shift_[a] = total;
       total += bits[a];
     }
-    if (total > 64) {
+    if (total > 63) {  // one spare bit keeps every key below kSentinel
       throw Error(ErrorCode::kInvalidArgument, "GICP cloud too large for its voxel cells");
     }
     std::vector<std::pair<uint64_t, uint32_t>> keyed(points.size());
@@ -67,9 +67,10 @@ class SortedCells {
       cell_of_[keyed[i].second] = static_cast<uint32_t>(keys_.size() - 1);
     }
     begin_.push_back(static_cast<uint32_t>(points.size()));
+    keys_.push_back(kSentinel);
   }
 
-  size_t size() const { return keys_.size(); }
+  size_t size() const { return keys_.empty() ? 0 : keys_.size() - 1; }
   uint32_t CellOf(size_t point) const { return cell_of_[point]; }
   // Point indices of cell c.
   const uint32_t* PointsBegin(size_t c) const { return order_.data() + begin_[c]; }
@@ -93,8 +94,8 @@ class SortedCells {
         const uint64_t low = keys_[c] + column_offset[k] - dz;
         const uint64_t high = keys_[c] + column_offset[k] + dz;
         size_t& p = column[k];
-        while (p < keys_.size() && keys_[p] < low) ++p;
-        for (size_t n = p; n < keys_.size() && keys_[n] <= high; ++n) visit(c, n);
+        while (keys_[p] < low) ++p;  // the sentinel stops both loops
+        for (size_t n = p; keys_[n] <= high; ++n) visit(c, n);
       }
     }
   }
@@ -117,8 +118,11 @@ class SortedCells {
     }
   }
 
+  // Above every key: the padding keeps the highest field below its maximum.
+  static constexpr uint64_t kSentinel = ~uint64_t{0};
+
   int shift_[3] = {0, 0, 0};
-  std::vector<uint64_t> keys_;     // sorted, unique
+  std::vector<uint64_t> keys_;     // sorted, unique, then kSentinel
   std::vector<uint32_t> begin_;    // cell c holds order_[begin_[c] .. begin_[c + 1])
   std::vector<uint32_t> order_;    // point indices grouped by cell
   std::vector<uint32_t> cell_of_;  // per point

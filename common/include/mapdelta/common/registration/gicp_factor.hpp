@@ -3,6 +3,8 @@
 // of AlignGicp; public so tests can check the Jacobian against numeric differences.
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <cmath>
 
 #include "mapdelta/common/pose.hpp"
 
@@ -13,8 +15,56 @@ namespace mapdelta {
 // its normal whatever the sampling density.
 inline constexpr double kPlaneNormalEigenvalue = 1e-3;
 
-// Replaces the eigenvalues of a sample covariance by (1e-3, 1, 1), smallest first.
+// Unit eigenvector of the smallest eigenvalue of a symmetric positive semi-definite 3x3
+// matrix, in closed form: the eigenvalue by Newton's method on det(A - l I) from l = 0 (left
+// of the smallest root the cubic is decreasing and convex, so the iterates rise monotonically
+// to it; 2-4 iterations for a surface patch, no acos/cos), the vector as the longest cross
+// product of two rows of (A - l I). False when that eigenvalue is (nearly) repeated and the
+// direction is not defined by it alone.
+inline bool SmallestEigenvector(const Eigen::Matrix3d& A, Eigen::Vector3d* normal) {
+  const double scale = A.cwiseAbs().maxCoeff();
+  if (!(scale > 0) || !std::isfinite(scale)) return false;
+  const Eigen::Matrix3d B = A * (1.0 / scale);
+  // det(B - l I) = -l^3 + c2 l^2 - c1 l + c0.
+  const double c2 = B.trace();
+  const double c1 = B(0, 0) * B(1, 1) - B(0, 1) * B(0, 1) + B(0, 0) * B(2, 2) -
+                    B(0, 2) * B(0, 2) + B(1, 1) * B(2, 2) - B(1, 2) * B(1, 2);
+  const double c0 = B.determinant();
+  double l = 0;  // c0 <= 0: the smallest eigenvalue is 0 up to rounding
+  for (int iteration = 0; c0 > 0; ++iteration) {
+    const double f = ((c2 - l) * l - c1) * l + c0;
+    const double slope = (2.0 * c2 - 3.0 * l) * l - c1;
+    const double step = f / slope;
+    l -= step;
+    // 1e-12 of the largest entry: the vector's error (~ that / the eigenvalue gap) stays below
+    // float precision, in which covariances are stored, for gaps above ~1e-5.
+    if (!(std::abs(step) > 1e-12)) break;
+    if (iteration == 60) return false;  // a repeated root converges too slowly: no normal
+  }
+  const Eigen::Matrix3d M = B - l * Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d c[3] = {M.row(0).cross(M.row(1)), M.row(0).cross(M.row(2)),
+                                M.row(1).cross(M.row(2))};
+  int best = 0;
+  for (int k = 1; k < 3; ++k) {
+    if (c[k].squaredNorm() > c[best].squaredNorm()) best = k;
+  }
+  // |c| ~ product of the gaps to the other two eigenvalues (relative to the largest).
+  const double length = c[best].norm();
+  if (!(length > 1e-8)) return false;
+  *normal = c[best] * (1.0 / length);
+  return true;
+}
+
+// Replaces the eigenvalues of a sample covariance by (1e-3, 1, 1), smallest first:
+// V diag(1e-3, 1, 1) V^T = I - (1 - 1e-3) n n^T with n the smallest eigenvalue's vector.
+// Closed form (~40 ns against ~120 ns for Eigen's computeDirect, which also finds the other
+// two vectors with acos/cos; measured 2026-12-01); computeDirect where the smallest
+// eigenvalue is repeated.
 inline Eigen::Matrix3d RegularizePlaneCovariance(const Eigen::Matrix3d& sample_covariance) {
+  Eigen::Vector3d n;
+  if (SmallestEigenvector(sample_covariance, &n)) {
+    return Eigen::Matrix3d::Identity() - (1.0 - kPlaneNormalEigenvalue) * n * n.transpose();
+  }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
   eig.computeDirect(sample_covariance);
   const Eigen::Vector3d values(kPlaneNormalEigenvalue, 1.0, 1.0);
