@@ -195,7 +195,8 @@ TEST(Linearization, MatchesTextbookGicpTerms) {
   Vector6d d;
   for (int k = 0; k < 6; ++k) d(k) = n(rng);
   const SE3 T = RetractRight(SE3::Identity(), d);
-  Linearization fast, textbook;
+  TermSums fast_sums;
+  Linearization textbook;
   for (int trial = 0; trial < 20; ++trial) {
     const Eigen::Vector3d s(3 * n(rng), 3 * n(rng), n(rng)), t(3 * n(rng), 3 * n(rng), n(rng));
     Eigen::Matrix3d A, B;
@@ -216,9 +217,9 @@ TEST(Linearization, MatchesTextbookGicpTerms) {
     textbook.error += r.dot(W * r);
     // Source frame.
     const Eigen::Matrix3d Rt = T.linear().transpose();
-    AddTerm(s, Rt * r, SourceFrameWeight(Rt, Ct, Cs), 0.0, &fast);
+    AddTerm(s, Rt * r, SourceFrameWeight(Rt, Ct, Cs), 0.0, &fast_sums);
   }
-  CompleteSymmetric(&fast);
+  const Linearization fast = Expand(fast_sums);
   const double scale = textbook.H.cwiseAbs().maxCoeff();
   EXPECT_LT((fast.H - textbook.H).cwiseAbs().maxCoeff(), 1e-9 * scale);
   EXPECT_LT((fast.b - textbook.b).cwiseAbs().maxCoeff(), 1e-9 * scale);

@@ -29,7 +29,10 @@
 #include <Eigen/Eigenvalues>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <numeric>
+#include <optional>
+#include <thread>
 
 #include "correspondence_cache.hpp"
 #include "gicp_cloud_access.hpp"
@@ -65,11 +68,18 @@ struct PassResult {
   double error_old = 0;
 };
 
+// The same, summing.
+struct PassSums {
+  detail::TermSums terms;
+  double error_old = 0;
+};
+
 class Problem {
  public:
   Problem(const GicpCloud& target, const GicpCloud& source, const GicpParams& params)
       : target_(target), source_(source), params_(params),
         tree_(detail::GicpCloudAccess::Tree(target)),
+        team_(params.num_threads),
         cache_(source.size(), static_cast<float>(params.max_correspondence_m)),
         accepted_(source.size(), kNone), candidate_(source.size(), kNone) {}
 
@@ -84,35 +94,39 @@ class Problem {
     const auto start = std::chrono::steady_clock::now();
     const bool test = work != Work::kLinearize, linearize = work != Work::kStepTest;
     const Eigen::Matrix3d Rt = T.linear().transpose();
-    const Eigen::Isometry3f Tf = T.cast<float>();
     const auto& tp = target_.points();
     const auto& tc = target_.covariances();
     const auto& sp = source_.points();
     const auto& sc = source_.covariances();
     auto parts = detail::ParallelRanges(
-        source_.size(), params_.num_threads, PassResult{},
-        [&](size_t begin, size_t end, PassResult& part) {
+        source_.size(), team_, PassSums{},
+        [&](size_t begin, size_t end, PassSums& part) {
           for (size_t i = begin; i < end; ++i) {
             const Eigen::Vector3d s = sp[i].cast<double>();
             const Eigen::Vector3d Ts = T * s;
             const uint32_t old_j = test ? accepted_[i] : kNone;
-            Eigen::Matrix3d W_old;
+            detail::Sym3 W_old{};
+            Eigen::Vector3d u_old = Eigen::Vector3d::Zero();
             if (old_j != kNone) {
               W_old = detail::SourceFrameWeight(Rt, tc[old_j], sc[i]);
-              part.error_old += detail::WeightedError(W_old, Rt * (tp[old_j].cast<double>() - Ts));
+              u_old = Rt * (tp[old_j].cast<double>() - Ts);
+              part.error_old += detail::WeightedError(W_old, u_old);
             }
             if (!linearize) continue;
             float distance = 0;
-            const uint32_t j = cache_.Find(i, Tf * sp[i], i > begin ? i - 1 : kNone, tp, tree_,
-                                           &distance);
+            const uint32_t j = cache_.Find(i, Ts.cast<float>(), i > begin ? i - 1 : kNone, tp,
+                                           tree_, &distance);
             candidate_[i] = j;
             if (j == kNone) continue;
-            const Eigen::Matrix3d W =
-                j == old_j ? W_old : detail::SourceFrameWeight(Rt, tc[j], sc[i]);
-            detail::AddTerm(s, Rt * (tp[j].cast<double>() - Ts), W, distance, &part.lin);
+            if (j == old_j) {
+              detail::AddTerm(s, u_old, W_old, distance, &part.terms);
+            } else {
+              detail::AddTerm(s, Rt * (tp[j].cast<double>() - Ts),
+                              detail::SourceFrameWeight(Rt, tc[j], sc[i]), distance, &part.terms);
+            }
           }
         });
-    PassResult total;
+    PassSums total;
     MD_LOG(kDebug, "AlignGicp: pass (" << (test ? "step test" : "") << (test && linearize ? ", " : "")
                                        << (linearize ? "linearize" : "") << ") "
                                        << 1e3 * std::chrono::duration<double>(
@@ -120,11 +134,10 @@ class Problem {
                                                     .count()
                                        << " ms, " << cache_.searches() << " searches so far");
     for (const auto& p : parts) {
-      total.lin.Add(p.lin);
+      total.terms.Add(p.terms);
       total.error_old += p.error_old;
     }
-    detail::CompleteSymmetric(&total.lin);
-    return total;
+    return {detail::Expand(total.terms), total.error_old};
   }
 
   // The last pass's correspondences become the accepted ones.
@@ -137,6 +150,7 @@ class Problem {
   const GicpCloud& source_;
   const GicpParams& params_;
   const detail::KdTree& tree_;
+  detail::ThreadTeam team_;  // for every pass of this alignment
   detail::CorrespondenceCache cache_;
   std::vector<uint32_t> accepted_;   // per source point: target index or kNone
   std::vector<uint32_t> candidate_;  // the same for the last pass
@@ -282,8 +296,34 @@ RegistrationResult AlignGicp(const GicpCloud& target, const PointCloud& source,
 
 RegistrationResult AlignGicp(const PointCloud& target, const PointCloud& source,
                              const SE3& init_T_target_source, const GicpParams& params) {
-  return AlignGicp(GicpCloud(target, params), GicpCloud(source, params), init_T_target_source,
-                   params);
+  if (params.num_threads < 2) {
+    return AlignGicp(GicpCloud(target, params), GicpCloud(source, params), init_T_target_source,
+                     params);
+  }
+  // Both clouds side by side, half the threads each; the target's k-d tree with it. (Inside
+  // one cloud the voxelization, cell sort and tree build are serial.)
+  GicpParams half = params;
+  half.num_threads = params.num_threads / 2;
+  std::optional<GicpCloud> prepared_target;
+  std::exception_ptr target_error;
+  std::thread worker([&] {
+    try {
+      prepared_target.emplace(target, half);
+      detail::GicpCloudAccess::Tree(*prepared_target);
+    } catch (...) {
+      target_error = std::current_exception();
+    }
+  });
+  std::optional<GicpCloud> prepared_source;
+  try {
+    prepared_source.emplace(source, half);
+  } catch (...) {
+    worker.join();
+    throw;
+  }
+  worker.join();
+  if (target_error) std::rethrow_exception(target_error);
+  return AlignGicp(*prepared_target, *prepared_source, init_T_target_source, params);
 }
 
 }  // namespace mapdelta
