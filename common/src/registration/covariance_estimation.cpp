@@ -68,10 +68,12 @@ std::vector<Eigen::Matrix3f> CovariancesVoxelBlock(const PointCloud& points, dou
                                                    int num_threads) {
   std::vector<Eigen::Matrix3f> out(points.size());
   if (points.empty()) return out;
-  // 1. Cells of the grid through the origin (aligned with the voxels of voxel_m, whatever the
-  // point order), moments relative to the first point (precision far from the origin).
-  const Eigen::Vector3d origin = points.front().cast<double>();
-  const SortedCells cells(points, Eigen::Vector3d::Zero(), cell_m, 1);
+  // 1. Cells of the grid through the coordinate origin (aligned with the voxels of voxel_m,
+  // whatever the point order), counted from its grid point nearest the first point; moments
+  // relative to that point (precision far from the origin).
+  const Eigen::Vector3d origin =
+      ((points.front().cast<double>() / cell_m).array().floor() * cell_m).matrix();
+  const SortedCells cells(points, origin, cell_m, 1);
   std::vector<Moments> cell_moments(cells.size());
   for (size_t c = 0; c < cells.size(); ++c) {
     for (const uint32_t* i = cells.PointsBegin(c); i != cells.PointsEnd(c); ++i) {

@@ -32,7 +32,16 @@ class SortedCells {
     std::vector<Eigen::Vector3i> coords(points.size());
     Eigen::Vector3i lo = Eigen::Vector3i::Constant(INT32_MAX), hi = -lo;
     for (size_t i = 0; i < points.size(); ++i) {
-      coords[i] = ((points[i].cast<double>() - origin) * inv).array().floor().cast<int>();
+      for (int a = 0; a < 3; ++a) {
+        // floor() without the libm call (x86-64 without SSE4.1 has no rounding instruction):
+        // truncate, then step down for negative fractions.
+        const double v = (static_cast<double>(points[i][a]) - origin[a]) * inv;
+        if (!(std::abs(v) < kMaxCoordinate)) {
+          throw Error(ErrorCode::kInvalidArgument, "GICP cloud too far from its cell origin");
+        }
+        const int c = static_cast<int>(v);
+        coords[i][a] = c - (v < c);
+      }
       lo = lo.cwiseMin(coords[i]);
       hi = hi.cwiseMax(coords[i]);
     }
@@ -109,8 +118,9 @@ class SortedCells {
   static void RadixSort(std::vector<std::pair<uint64_t, uint32_t>>* v, int bits) {
     constexpr int kDigit = 11;
     std::vector<std::pair<uint64_t, uint32_t>> tmp(v->size());
+    std::vector<uint32_t> count((1u << kDigit) + 1);
     for (int shift = 0; shift < bits; shift += kDigit) {
-      std::vector<uint32_t> count((1u << kDigit) + 1, 0);
+      std::fill(count.begin(), count.end(), 0);
       for (const auto& e : *v) ++count[((e.first >> shift) & ((1u << kDigit) - 1)) + 1];
       for (size_t d = 1; d < count.size(); ++d) count[d] += count[d - 1];
       for (const auto& e : *v) tmp[count[(e.first >> shift) & ((1u << kDigit) - 1)]++] = e;
@@ -118,6 +128,8 @@ class SortedCells {
     }
   }
 
+  // Cell coordinates must fit an int with room for the padding.
+  static constexpr double kMaxCoordinate = 1 << 30;
   // Above every key: the padding keeps the highest field below its maximum.
   static constexpr uint64_t kSentinel = ~uint64_t{0};
 
