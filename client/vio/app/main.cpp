@@ -27,7 +27,7 @@ const char* kUsage =
     "  --threads N           Ceres threads (default 1)\n"
     "  --set KEY=VALUE       override a VioConfig number: iterations, window, init_frames,\n"
     "                        init_span (s), init_iterations, analytic (0/1),\n"
-    "                        motion_only (0/1), max_features,\n"
+    "                        motion_only (0/1), max_features, klt_window, klt_levels,\n"
     "                        min_distance, pixel_sigma, huber, parallax, right_other (0/1),\n"
     "                        covariance (0/1), min_zncc, outlier (sigmas)\n"
     "  --log-level L         debug|info|warn|error (default info)\n"
@@ -58,6 +58,8 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   else if (key == "init_iterations") c->init_solver_iterations = static_cast<int>(v);
   else if (key == "max_features") c->tracker.max_features = static_cast<int>(v);
   else if (key == "min_distance") c->tracker.min_distance_px = v;
+  else if (key == "klt_window") c->tracker.klt_window_px = static_cast<int>(v);
+  else if (key == "klt_levels") c->tracker.klt_levels = static_cast<int>(v);
   else if (key == "pixel_sigma") c->pixel_sigma = v;
   else if (key == "huber") c->huber_sigmas = v;
   else if (key == "parallax") c->keyframe_parallax = v;

@@ -17,15 +17,25 @@ std::optional<std::vector<InitFrame>> Initializer::AddFrame(const FrameFeatures&
                                                             const ImuPreintegration& pre) {
   InitFrame frame{features, pre, {}};
   if (!frames_.empty()) {
-    SE3 T_prev_cur;
-    if (!RelativeMotion(frames_.back().features, features, &T_prev_cur)) {
+    // Against the anchor while it shares kAnchorMinInliers with this frame; then the previous
+    // frame becomes the anchor.
+    constexpr size_t kAnchorMinInliers = 40;
+    SE3 T_anchor_cur;
+    bool ok = RelativeMotion(frames_[anchor_].features, features, &T_anchor_cur,
+                             anchor_ + 1 < frames_.size() ? kAnchorMinInliers : 10);
+    if (!ok && anchor_ + 1 < frames_.size()) {
+      anchor_ = frames_.size() - 1;
+      ok = RelativeMotion(frames_[anchor_].features, features, &T_anchor_cur);
+    }
+    if (!ok) {
       MD_LOG(kDebug, "vio init: stereo PnP failed at t_ns=" << features.t_ns << ", restarting");
       frames_.clear();
+      anchor_ = 0;
       frame.pre = ImuPreintegration(pre.noise(), pre.bg0(), pre.ba0());
     } else {
-      const SE3& T_w_prev = frames_.back().state.T_world_body;
+      const SE3& T_w_anchor = frames_[anchor_].state.T_world_body;
       frame.state.T_world_body =
-          T_w_prev * ext_.T_body_cam0 * T_prev_cur * ext_.T_body_cam0.inverse();
+          T_w_anchor * ext_.T_body_cam0 * T_anchor_cur * ext_.T_body_cam0.inverse();
     }
   }
   frames_.push_back(std::move(frame));
@@ -36,14 +46,16 @@ std::optional<std::vector<InitFrame>> Initializer::AddFrame(const FrameFeatures&
   std::vector<InitFrame> out(frames_.begin(), frames_.end());
   if (!Align(&out)) {
     frames_.pop_front();  // slide: try again with the next frame
+    if (anchor_ > 0) --anchor_;  // a dropped anchor hands over to the new oldest frame
     return std::nullopt;
   }
   frames_.clear();
+  anchor_ = 0;
   return out;
 }
 
 bool Initializer::RelativeMotion(const FrameFeatures& prev, const FrameFeatures& cur,
-                                 SE3* T_prev_cur) const {
+                                 SE3* T_prev_cur, size_t min_inliers) const {
   std::unordered_map<uint64_t, const FeatureObservation*> by_id;
   for (const auto& f : cur.features) by_id[f.id] = &f;
   std::vector<cv::Point3f> object;
@@ -77,7 +89,7 @@ bool Initializer::RelativeMotion(const FrameFeatures& prev, const FrameFeatures&
   const bool ok = cv::solvePnPRansac(object, image, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec,
                                      tvec, false, 100, static_cast<float>(threshold), 0.99,
                                      inliers, cv::SOLVEPNP_ITERATIVE);
-  if (!ok || inliers.size() < 10) return false;
+  if (!ok || inliers.size() < min_inliers) return false;
   cv::Mat R_cv;
   cv::Rodrigues(rvec, R_cv);
   Eigen::Matrix3d R;
