@@ -199,17 +199,16 @@ TEST(Linearization, MatchesTextbookGicpTerms) {
   Linearization textbook;
   for (int trial = 0; trial < 20; ++trial) {
     const Eigen::Vector3d s(3 * n(rng), 3 * n(rng), n(rng)), t(3 * n(rng), 3 * n(rng), n(rng));
-    Eigen::Matrix3d A, B;
-    for (int k = 0; k < 9; ++k) {
-      A(k / 3, k % 3) = n(rng);
-      B(k / 3, k % 3) = n(rng);
-    }
-    const Eigen::Matrix3f Ct = RegularizePlaneCovariance(A * A.transpose()).cast<float>();
-    const Eigen::Matrix3f Cs = RegularizePlaneCovariance(B * B.transpose()).cast<float>();
+    // Plane normals, and now and then an isotropic point (zero normal).
+    Eigen::Vector3f nt(n(rng), n(rng), n(rng)), ns(n(rng), n(rng), n(rng));
+    nt = trial % 7 == 3 ? Eigen::Vector3f::Zero() : Eigen::Vector3f(nt.normalized());
+    ns = trial % 5 == 1 ? Eigen::Vector3f::Zero() : Eigen::Vector3f(ns.normalized());
+    const Eigen::Matrix3d Ct = PlaneCovariance(nt.cast<double>());
+    const Eigen::Matrix3d Cs = PlaneCovariance(ns.cast<double>());
     // Textbook: J^T W J with W = (Ct + R Cs R^T)^-1 in the target frame.
     Eigen::Matrix<double, 3, 6> J;
     const Eigen::Vector3d r = GicpResidual(t, s, T, &J);
-    const Eigen::Matrix3d W = GicpWeight(Ct.cast<double>(), Cs.cast<double>(), T.linear());
+    const Eigen::Matrix3d W = GicpWeight(Ct, Cs, T.linear());
     const Vector6d g = J.transpose() * W * r;
     textbook.H += J.transpose() * W * J;
     textbook.b += g;
@@ -217,7 +216,7 @@ TEST(Linearization, MatchesTextbookGicpTerms) {
     textbook.error += r.dot(W * r);
     // Source frame.
     const Eigen::Matrix3d Rt = T.linear().transpose();
-    AddTerm(s, Rt * r, SourceFrameWeight(Rt, Ct, Cs), 0.0, &fast_sums);
+    AddTerm(s, Rt * r, SourceFrameWeight(Rt, nt, ns), 0.0, &fast_sums);
   }
   const Linearization fast = Expand(fast_sums);
   const double scale = textbook.H.cwiseAbs().maxCoeff();

@@ -32,41 +32,41 @@ struct Moments {
   double n() const { return v(0); }
 };
 
-// Sample covariance from moments, plane-regularized; isotropic unit when shapeless.
-Eigen::Matrix3f Regularized(const Moments& m) {
-  if (m.n() < 5) return Eigen::Matrix3f::Identity();
+// Plane normal of the sample covariance from moments; zero (isotropic) when shapeless.
+Eigen::Vector3f Normal(const Moments& m) {
+  if (m.n() < 5) return Eigen::Vector3f::Zero();
   const Eigen::Vector3d mean = m.v.segment<3>(1) / m.n();
   Eigen::Matrix3d outer;
   outer << m.v(4), m.v(5), m.v(6), m.v(5), m.v(7), m.v(8), m.v(6), m.v(8), m.v(9);
   const Eigen::Matrix3d cov = outer / m.n() - mean * mean.transpose();
-  if (!(cov.trace() > 1e-12) || !cov.allFinite()) return Eigen::Matrix3f::Identity();
-  return RegularizePlaneCovariance(cov).cast<float>();
+  if (!(cov.trace() > 1e-12) || !cov.allFinite()) return Eigen::Vector3f::Zero();
+  return PlaneNormal(cov).cast<float>();
 }
 
-Eigen::Matrix3f KNearestCovariance(const PointCloud& points, const KdTree& tree,
-                                   const Point& query, size_t k) {
+Eigen::Vector3f KNearestNormal(const PointCloud& points, const KdTree& tree, const Point& query,
+                               size_t k) {
   // Centred on the query point's neighbourhood mean; moments in double are exact enough
   // after subtracting the query (clouds may be in map coordinates far from the origin).
   const Eigen::Vector3d origin = query.cast<double>();
   Moments m;
   for (size_t i : tree.KNearest(query, k)) m.Add(points[i].cast<double>() - origin);
-  return Regularized(m);
+  return Normal(m);
 }
 
 }  // namespace
 
-std::vector<Eigen::Matrix3f> CovariancesKNearest(const PointCloud& points, const KdTree& tree,
-                                                 size_t k, int num_threads) {
-  std::vector<Eigen::Matrix3f> out(points.size());
+std::vector<Eigen::Vector3f> NormalsKNearest(const PointCloud& points, const KdTree& tree,
+                                            size_t k, int num_threads) {
+  std::vector<Eigen::Vector3f> out(points.size());
   ParallelRanges(points.size(), num_threads, 0, [&](size_t begin, size_t end, int&) {
-    for (size_t i = begin; i < end; ++i) out[i] = KNearestCovariance(points, tree, points[i], k);
+    for (size_t i = begin; i < end; ++i) out[i] = KNearestNormal(points, tree, points[i], k);
   });
   return out;
 }
 
-std::vector<Eigen::Matrix3f> CovariancesVoxelBlock(const PointCloud& points, double cell_m,
-                                                   int num_threads) {
-  std::vector<Eigen::Matrix3f> out(points.size());
+std::vector<Eigen::Vector3f> NormalsVoxelBlock(const PointCloud& points, double cell_m,
+                                              int num_threads) {
+  std::vector<Eigen::Vector3f> out(points.size());
   if (points.empty()) return out;
   // 1. Cells of the grid through the coordinate origin (aligned with the voxels of voxel_m,
   // whatever the point order), counted from its grid point nearest the first point; moments
@@ -80,20 +80,20 @@ std::vector<Eigen::Matrix3f> CovariancesVoxelBlock(const PointCloud& points, dou
       cell_moments[c].Add(points[*i].cast<double>() - origin);
     }
   }
-  // 2. Block moments per occupied cell, then its regularized covariance.
+  // 2. Block moments per occupied cell, then its normal.
   std::vector<Moments> blocks(cells.size());
   std::vector<uint32_t> all(cells.size());
   for (size_t c = 0; c < cells.size(); ++c) all[c] = static_cast<uint32_t>(c);
   cells.ForEachInBlock(all, 1, [&](size_t c, size_t n) { blocks[c].Add(cell_moments[n]); });
-  std::vector<Eigen::Matrix3f> cell_cov(cells.size());
+  std::vector<Eigen::Vector3f> cell_normal(cells.size());
   ParallelRanges(cells.size(), num_threads, 0, [&](size_t begin, size_t end, int&) {
     for (size_t c = begin; c < end; ++c) {
-      cell_cov[c] = blocks[c].n() < kMinBlockPoints ? Eigen::Matrix3f::Identity()
-                                                  : Regularized(blocks[c]);
+      cell_normal[c] =
+          blocks[c].n() < kMinBlockPoints ? Eigen::Vector3f::Zero() : Normal(blocks[c]);
     }
   });
-  // 3. Points take their cell's covariance.
-  for (size_t i = 0; i < points.size(); ++i) out[i] = cell_cov[cells.CellOf(i)];
+  // 3. Points take their cell's normal.
+  for (size_t i = 0; i < points.size(); ++i) out[i] = cell_normal[cells.CellOf(i)];
   return out;
 }
 

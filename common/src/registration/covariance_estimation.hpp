@@ -1,5 +1,7 @@
 #pragma once
-// Per-point plane-regularized covariances for GICP, two neighbourhood definitions:
+// Per-point plane-regularized covariances for GICP, as their normals (PlaneCovariance in
+// gicp_factor.hpp: C = I - (1 - 1e-3) n n^T; a zero normal for the isotropic unit covariance),
+// two neighbourhood definitions:
 //  - k nearest neighbours from the k-d tree (exact; ~2 us per point for k = 20);
 //  - a voxel block: the points in the 3x3x3 cells around the point's cell. Block moments
 //    (count, sum, sum of outer products) are accumulated once per occupied cell and shared by
@@ -21,9 +23,9 @@ namespace mapdelta::detail {
 
 inline constexpr size_t kMinBlockPoints = 6;
 
-std::vector<Eigen::Matrix3f> CovariancesKNearest(const PointCloud& points, const KdTree& tree,
-                                                 size_t k, int num_threads);
-std::vector<Eigen::Matrix3f> CovariancesVoxelBlock(const PointCloud& points, double cell_m,
-                                                   int num_threads);
+std::vector<Eigen::Vector3f> NormalsKNearest(const PointCloud& points, const KdTree& tree,
+                                            size_t k, int num_threads);
+std::vector<Eigen::Vector3f> NormalsVoxelBlock(const PointCloud& points, double cell_m,
+                                              int num_threads);
 
 }  // namespace mapdelta::detail

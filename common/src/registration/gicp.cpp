@@ -29,10 +29,8 @@
 #include <Eigen/Eigenvalues>
 #include <chrono>
 #include <cmath>
-#include <exception>
 #include <numeric>
 #include <optional>
-#include <thread>
 
 #include "correspondence_cache.hpp"
 #include "gicp_cloud_access.hpp"
@@ -79,7 +77,6 @@ class Problem {
   Problem(const GicpCloud& target, const GicpCloud& source, const GicpParams& params)
       : target_(target), source_(source), params_(params),
         tree_(detail::GicpCloudAccess::Tree(target)),
-        team_(params.num_threads),
         cache_(source.size(), static_cast<float>(params.max_correspondence_m)),
         accepted_(source.size(), kNone), candidate_(source.size(), kNone) {}
 
@@ -95,11 +92,11 @@ class Problem {
     const bool test = work != Work::kLinearize, linearize = work != Work::kStepTest;
     const Eigen::Matrix3d Rt = T.linear().transpose();
     const auto& tp = target_.points();
-    const auto& tc = target_.covariances();
+    const auto& tn = detail::GicpCloudAccess::Normals(target_);
     const auto& sp = source_.points();
-    const auto& sc = source_.covariances();
+    const auto& sn = detail::GicpCloudAccess::Normals(source_);
     auto parts = detail::ParallelRanges(
-        source_.size(), team_, PassSums{},
+        source_.size(), params_.num_threads, PassSums{},
         [&](size_t begin, size_t end, PassSums& part) {
           for (size_t i = begin; i < end; ++i) {
             const Eigen::Vector3d s = sp[i].cast<double>();
@@ -108,7 +105,7 @@ class Problem {
             detail::Sym3 W_old{};
             Eigen::Vector3d u_old = Eigen::Vector3d::Zero();
             if (old_j != kNone) {
-              W_old = detail::SourceFrameWeight(Rt, tc[old_j], sc[i]);
+              W_old = detail::SourceFrameWeight(Rt, tn[old_j], sn[i]);
               u_old = Rt * (tp[old_j].cast<double>() - Ts);
               part.error_old += detail::WeightedError(W_old, u_old);
             }
@@ -122,7 +119,7 @@ class Problem {
               detail::AddTerm(s, u_old, W_old, distance, &part.terms);
             } else {
               detail::AddTerm(s, Rt * (tp[j].cast<double>() - Ts),
-                              detail::SourceFrameWeight(Rt, tc[j], sc[i]), distance, &part.terms);
+                              detail::SourceFrameWeight(Rt, tn[j], sn[i]), distance, &part.terms);
             }
           }
         });
@@ -150,7 +147,6 @@ class Problem {
   const GicpCloud& source_;
   const GicpParams& params_;
   const detail::KdTree& tree_;
-  detail::ThreadTeam team_;  // for every pass of this alignment
   detail::CorrespondenceCache cache_;
   std::vector<uint32_t> accepted_;   // per source point: target index or kNone
   std::vector<uint32_t> candidate_;  // the same for the last pass
@@ -304,25 +300,15 @@ RegistrationResult AlignGicp(const PointCloud& target, const PointCloud& source,
   // one cloud the voxelization, cell sort and tree build are serial.)
   GicpParams half = params;
   half.num_threads = params.num_threads / 2;
-  std::optional<GicpCloud> prepared_target;
-  std::exception_ptr target_error;
-  std::thread worker([&] {
-    try {
+  std::optional<GicpCloud> prepared_target, prepared_source;
+  detail::CallerTeam(2).Run(2, [&](int job) {
+    if (job == 0) {
+      prepared_source.emplace(source, half);
+    } else {
       prepared_target.emplace(target, half);
       detail::GicpCloudAccess::Tree(*prepared_target);
-    } catch (...) {
-      target_error = std::current_exception();
     }
   });
-  std::optional<GicpCloud> prepared_source;
-  try {
-    prepared_source.emplace(source, half);
-  } catch (...) {
-    worker.join();
-    throw;
-  }
-  worker.join();
-  if (target_error) std::rethrow_exception(target_error);
   return AlignGicp(*prepared_target, *prepared_source, init_T_target_source, params);
 }
 

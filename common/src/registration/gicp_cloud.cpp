@@ -7,6 +7,7 @@
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
 #include "covariance_estimation.hpp"
+#include "mapdelta/common/registration/gicp_factor.hpp"
 #include "gicp_cloud_access.hpp"
 #include "voxel_centroids.hpp"
 
@@ -38,6 +39,9 @@ void ValidateGicpParams(const GicpParams& p) {
 
 struct GicpCloud::Impl {
   PointCloud points;
+  // Plane covariances are I - (1 - 1e-3) n n^T: AlignGicp works with the normals (its
+  // weights in closed form from them); covariances() for callers.
+  std::vector<Eigen::Vector3f> normals;
   std::vector<Eigen::Matrix3f> covariances;
   explicit Impl(PointCloud cloud) : points(std::move(cloud)) {}
 
@@ -55,6 +59,9 @@ struct GicpCloud::Impl {
 
 namespace detail {
 const KdTree& GicpCloudAccess::Tree(const GicpCloud& cloud) { return cloud.impl_->Tree(); }
+const std::vector<Eigen::Vector3f>& GicpCloudAccess::Normals(const GicpCloud& cloud) {
+  return cloud.impl_->normals;
+}
 }  // namespace detail
 
 GicpCloud::GicpCloud(const PointCloud& cloud, const GicpParams& params) {
@@ -69,11 +76,14 @@ GicpCloud::GicpCloud(const PointCloud& cloud, const GicpParams& params) {
   impl_ = std::make_unique<Impl>(std::move(points));
   const size_t k = static_cast<size_t>(params.k_neighbors);
   if (params.covariance_neighborhood == CovarianceNeighborhood::kVoxelBlock && params.voxel_m > 0) {
-    impl_->covariances = detail::CovariancesVoxelBlock(
+    impl_->normals = detail::NormalsVoxelBlock(
         impl_->points, kVoxelBlockCellFactor * params.voxel_m, params.num_threads);
   } else {
-    impl_->covariances =
-        detail::CovariancesKNearest(impl_->points, impl_->Tree(), k, params.num_threads);
+    impl_->normals = detail::NormalsKNearest(impl_->points, impl_->Tree(), k, params.num_threads);
+  }
+  impl_->covariances.resize(impl_->normals.size());
+  for (size_t i = 0; i < impl_->normals.size(); ++i) {
+    impl_->covariances[i] = PlaneCovariance(impl_->normals[i].cast<double>()).cast<float>();
   }
 }
 

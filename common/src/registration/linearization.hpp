@@ -2,7 +2,7 @@
 // The Gauss-Newton system of GICP summed over correspondences, one term at a time, computed in
 // the source frame. Same H, b, error as J^T W J, J^T W r, r^T W r with the Jacobian of
 // gicp_factor.hpp (tests/registration/test_gicp_internals.cpp checks it against them),
-// with one 3x3 similarity and one symmetric 3x3 inverse per term instead of
+// with the weight in closed form from the two plane normals (SourceFrameWeight) instead of
 // (C_t + R C_s R^T)^-1 followed by 6x3 products.
 //
 // With J = [R S, -R] (S = [s]x) and W = (C_t + R C_s R^T)^-1, let W' = R^T W R =
@@ -10,11 +10,11 @@
 //   J^T W J = [S^T W' S, -S^T W'; -W' S, W'],  J^T W r = [S^T W' u; -W' u],  r^T W r = u^T W' u,
 // and S^T = -S turns every product with S into a cross product with s. Symmetric blocks are
 // summed as upper triangles in one flat array (TermSums) and expanded once per pass:
-// ~45% fewer operations per term than full Eigen 3x3 / 6x6 products (measured on
-// bench_registration: a linearization pass over 6167 points 0.30 -> XXX ms, 2026-12-01).
+// fewer operations per term than full Eigen 3x3 / 6x6 products.
 #include <Eigen/Core>
 
 #include "mapdelta/common/registration/gicp.hpp"
+#include "mapdelta/common/registration/gicp_factor.hpp"
 
 namespace mapdelta::detail {
 
@@ -32,35 +32,25 @@ struct Sym3 {
   }
 };
 
-// Inverse of a symmetric positive definite 3x3 matrix by cofactors.
-inline Sym3 InverseSymmetric3(const Sym3& C) {
-  const double A00 = C.yy * C.zz - C.yz * C.yz, A01 = C.xz * C.yz - C.xy * C.zz,
-               A02 = C.xy * C.yz - C.xz * C.yy;
-  const double A11 = C.xx * C.zz - C.xz * C.xz, A12 = C.xy * C.xz - C.xx * C.yz,
-               A22 = C.xx * C.yy - C.xy * C.xy;
-  const double inv_det = 1.0 / (C.xx * A00 + C.xy * A01 + C.xz * A02);
-  return {A00 * inv_det, A01 * inv_det, A02 * inv_det,
-          A11 * inv_det, A12 * inv_det, A22 * inv_det};
-}
-
-// The source-frame weight W' = (R^T C_t R + C_s)^-1; Rt = R^T. Plain scalar loops: Eigen's
-// 3x3 products here compiled (GCC 12, SSE2) to scalar stores read back as packets, a
-// store-forwarding stall per product; and C.noalias() += Rt * Ct.cast<double>() *
-// Rt.transpose() came out wrong by ~1e-9 relative in some -O3 inlining contexts (caught by
-// test_gicp_internals).
-inline Sym3 SourceFrameWeight(const Eigen::Matrix3d& Rt, const Eigen::Matrix3f& Ct,
-                              const Eigen::Matrix3f& Cs) {
-  double RtC[3][3];
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      RtC[i][j] = Rt(i, 0) * Ct(0, j) + Rt(i, 1) * Ct(1, j) + Rt(i, 2) * Ct(2, j);
-    }
-  }
-  auto entry = [&](int i, int j) {
-    return RtC[i][0] * Rt(j, 0) + RtC[i][1] * Rt(j, 1) + RtC[i][2] * Rt(j, 2) + Cs(i, j);
-  };
-  return InverseSymmetric3(
-      {entry(0, 0), entry(0, 1), entry(0, 2), entry(1, 1), entry(1, 2), entry(2, 2)});
+// The source-frame weight W' = (R^T C_t R + C_s)^-1 (Rt = R^T) for plane covariances
+// C = I - a n n^T (a = 1 - 1e-3; n unit, or zero for the identity), from the two normals:
+// with m = R^T n_t and U = [m n_s], R^T C_t R + C_s = 2 I - a U U^T, and by Woodbury
+//   W' = (I + a U G^-1 U^T) / 2,  G = 2 I - a U^T U (2x2).
+// ~70 operations, against ~110 for the similarity of a full 3x3 and a 3x3 inverse.
+inline Sym3 SourceFrameWeight(const Eigen::Matrix3d& Rt, const Eigen::Vector3f& target_normal,
+                              const Eigen::Vector3f& source_normal) {
+  constexpr double a = 1.0 - kPlaneNormalEigenvalue;
+  const Eigen::Vector3d m = Rt * target_normal.cast<double>();
+  const Eigen::Vector3d n = source_normal.cast<double>();
+  const double g00 = 2.0 - a * m.squaredNorm(), g01 = -a * m.dot(n),
+               g11 = 2.0 - a * n.squaredNorm();
+  const double inv_det = 1.0 / (g00 * g11 - g01 * g01);
+  const double k00 = g11 * inv_det, k01 = -g01 * inv_det, k11 = g00 * inv_det;
+  // U G^-1 U^T = p m^T + q n^T (symmetric).
+  const Eigen::Vector3d p = a * (k00 * m + k01 * n), q = a * (k01 * m + k11 * n);
+  return {0.5 * (1.0 + p.x() * m.x() + q.x() * n.x()), 0.5 * (p.x() * m.y() + q.x() * n.y()),
+          0.5 * (p.x() * m.z() + q.x() * n.z()),       0.5 * (1.0 + p.y() * m.y() + q.y() * n.y()),
+          0.5 * (p.y() * m.z() + q.y() * n.z()),       0.5 * (1.0 + p.z() * m.z() + q.z() * n.z())};
 }
 
 // u^T W' u for the residual r = t - (R s + translation) rotated into the source frame.

@@ -1,19 +1,22 @@
 #pragma once
-// Splits [0, n) into contiguous ranges, runs body(begin, end, accumulator) on each in its own
-// thread, and returns the accumulators in range order. The split depends only on n and the
-// thread count, so sums combined in order are deterministic for a given thread count.
+// Parallel loops for GICP over chunks of [0, n) (ParallelRanges below), with per-chunk
+// accumulators summed in order: deterministic, and the same for any thread count.
 // std::thread rather than OpenMP: nothing process-wide is touched, and on an oversubscribed
 // machine libgomp's spin-waiting barriers made 2-thread runs 10x slower than 1 thread
 // (measured with bench_registration at load ~8 on 2 cores), while burning others' CPU.
 //
-// ThreadTeam keeps its workers for many ParallelRanges calls (AlignGicp's passes): starting a
-// std::thread per pass cost ~30-60 us each, 8-10 times per alignment. Idle workers block on a
-// condition variable; they never spin.
+// The workers are kept between calls, one team per calling thread (CallerTeam): on a shared,
+// loaded machine a freshly started std::thread waited up to several ms for a core (the
+// scheduler makes new threads queue behind running ones), and two clouds prepared on a new
+// thread each took longer than one after the other. A woken worker starts at once. Idle
+// workers block on a condition variable; they never spin.
 #include <algorithm>
+#include <atomic>
 #include <condition_variable>
 #include <cstddef>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -37,11 +40,18 @@ class ThreadTeam {
   ThreadTeam& operator=(const ThreadTeam&) = delete;
 
   int size() const { return size_; }
+  bool busy() const { return busy_; }
 
   // Runs job(t) for t in [0, threads) (threads <= size(); t = 0 on the calling thread) and
   // returns when all are done. Exceptions are caught per job; the first is rethrown here.
+  // A Run from inside a job of the same team runs its jobs one after the other on the caller.
   void Run(int threads, const std::function<void(int)>& job) {
-    threads = std::clamp(threads, 1, size_);
+    threads = busy_ ? 1 : std::clamp(threads, 1, size_);
+    if (threads == 1) {
+      job(0);
+      return;
+    }
+    busy_ = true;
     std::vector<std::exception_ptr> errors(static_cast<size_t>(threads));
     auto guarded = [&](int t) {
       try {
@@ -64,6 +74,7 @@ class ThreadTeam {
       done_.wait(lock, [this] { return pending_ == 0; });
       job_ = nullptr;
     }
+    busy_ = false;
     for (const auto& e : errors) {
       if (e) std::rethrow_exception(e);
     }
@@ -89,6 +100,7 @@ class ThreadTeam {
   }
 
   const int size_;
+  bool busy_ = false;  // only the owning thread reads or writes it
   std::vector<std::thread> workers_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
@@ -99,30 +111,44 @@ class ThreadTeam {
   bool stop_ = false;
 };
 
-inline constexpr size_t kMinPerThread = 512;  // below this, a thread costs more than it saves
+// Points per chunk of ParallelRanges: small enough to balance uneven work (a GICP outlier's
+// search costs ~10x an inlier's), large enough that taking one is free.
+inline constexpr size_t kChunk = 256;
 
-template <class Accumulator, class Body>
-std::vector<Accumulator> ParallelRanges(size_t n, ThreadTeam& team, const Accumulator& init,
-                                        Body&& body) {
-  const size_t by_size = std::max<size_t>(1, n / kMinPerThread);
-  const size_t threads = std::min<size_t>(static_cast<size_t>(team.size()), by_size);
-  std::vector<Accumulator> accumulators(threads, init);
-  team.Run(static_cast<int>(threads), [&](int t) {
-    const size_t k = static_cast<size_t>(t);
-    body(n * k / threads, n * (k + 1) / threads, accumulators[k]);
-  });
-  return accumulators;
+// Splits [0, n) into chunks of ~kChunk (their number depends on n only), which the team's
+// threads take in turn; body(begin, end, accumulator) runs once per chunk with that chunk's
+// accumulator. The accumulators come back in chunk order, so sums combined in order are the
+// same for any thread count.
+// The calling thread's team with at least num_threads threads (created or grown on demand,
+// kept until the thread exits; not grown while it runs a job, which then runs serially).
+inline ThreadTeam& CallerTeam(int num_threads) {
+  thread_local std::unique_ptr<ThreadTeam> team;
+  if (!team || (team->size() < num_threads && !team->busy())) {
+    team = std::make_unique<ThreadTeam>(num_threads);
+  }
+  return *team;
 }
 
-// One-off: a team for this call only.
 template <class Accumulator, class Body>
 std::vector<Accumulator> ParallelRanges(size_t n, int num_threads, const Accumulator& init,
                                         Body&& body) {
+  const size_t chunks = std::max<size_t>(1, n / kChunk);
   const int threads =
-      static_cast<int>(std::min<size_t>(static_cast<size_t>(std::max(1, num_threads)),
-                                        std::max<size_t>(1, n / kMinPerThread)));
-  ThreadTeam team(threads);
-  return ParallelRanges(n, team, init, std::forward<Body>(body));
+      static_cast<int>(std::min<size_t>(chunks, static_cast<size_t>(std::max(1, num_threads))));
+  std::vector<Accumulator> accumulators(chunks, init);
+  std::atomic<size_t> next{0};
+  ThreadTeam& team = CallerTeam(threads);
+  team.Run(threads,
+           [&](int) {
+             for (size_t c = next++; c < chunks; c = next++) {
+               // A local accumulator: neighbouring chunks' accumulators share cache lines, and
+               // two threads writing them term by term made 2 threads no faster than 1.
+               Accumulator local = init;
+               body(n * c / chunks, n * (c + 1) / chunks, local);
+               accumulators[c] = std::move(local);
+             }
+           });
+  return accumulators;
 }
 
 }  // namespace mapdelta::detail
