@@ -7,7 +7,7 @@
 #   client/vio/tools/seed_sweep.sh [--seeds "1 2 3"] [--noises "small big"] [--work DIR]
 #                                  [--build DIR] [--keep]
 # Output: DIR/runs.tsv (one row per run) and the summary on stdout. Runs niced, one at a time
-# (~50 s CPU to generate a seed, ~20 s per VIO run).
+# (~50 s CPU to generate a seed, ~20 s per VIO run); SWEEP_NICE=N sets the niceness (default 10).
 set -euo pipefail
 
 seeds="1 2 3 4 5 6 7 8 9 10"
@@ -46,11 +46,11 @@ for noise in $noises; do
     data="$work/tiny-$noise-s$seed"
     echo "== seed $seed, noise $noise: generating" >&2
     rm -rf "$data"
-    nice -n 10 "$sim" --preset tiny --out "$data" --seed "$seed" --noise "$noise" \
+    nice -n ${SWEEP_NICE:-10} "$sim" --preset tiny --out "$data" --seed "$seed" --noise "$noise" \
       --write_depth false --quiet > "$data.log" 2>&1
     for seq in S1_01 S2_01; do
       dir="$data/sequences/$seq"
-      out=$(nice -n 10 "$vio" --sequence "$dir" --out "$work/$seq-$noise-s$seed.tum" 2>/dev/null)
+      out=$(nice -n ${SWEEP_NICE:-10} "$vio" --sequence "$dir" --out "$work/$seq-$noise-s$seed.tum" 2>/dev/null)
       ate=$(sed -n 's/^ATE (SE3-aligned.*rmse \([0-9.]*\) m .*max \([0-9.]*\)$/\1\t\2/p' <<< "$out")
       worst=$(sed -n 's/^segment .*rmse \([0-9.]*\) m.*/\1/p' <<< "$out" | sort -g | tail -1)
       resets=$(sed -n 's/.*resets \([0-9]*\)$/\1/p' <<< "$out")
