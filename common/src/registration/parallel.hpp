@@ -111,14 +111,10 @@ class ThreadTeam {
   bool stop_ = false;
 };
 
-// Points per chunk of ParallelRanges: small enough to balance uneven work (a GICP outlier's
-// search costs ~10x an inlier's), large enough that taking one is free.
+// Points per chunk of ParallelRanges: small enough to balance uneven work (the k-d tree
+// search of a point costs from ~0.1 to several us), large enough that taking one is free.
 inline constexpr size_t kChunk = 256;
 
-// Splits [0, n) into chunks of ~kChunk (their number depends on n only), which the team's
-// threads take in turn; body(begin, end, accumulator) runs once per chunk with that chunk's
-// accumulator. The accumulators come back in chunk order, so sums combined in order are the
-// same for any thread count.
 // The calling thread's team with at least num_threads threads (created or grown on demand,
 // kept until the thread exits; not grown while it runs a job, which then runs serially).
 inline ThreadTeam& CallerTeam(int num_threads) {
@@ -129,6 +125,10 @@ inline ThreadTeam& CallerTeam(int num_threads) {
   return *team;
 }
 
+// Splits [0, n) into chunks of ~kChunk (their number depends on n only), which num_threads
+// threads of the caller's team take in turn; body(begin, end, accumulator) runs once per
+// chunk with that chunk's accumulator. The accumulators come back in chunk order, so sums
+// combined in order are the same for any thread count.
 template <class Accumulator, class Body>
 std::vector<Accumulator> ParallelRanges(size_t n, int num_threads, const Accumulator& init,
                                         Body&& body) {
@@ -138,16 +138,15 @@ std::vector<Accumulator> ParallelRanges(size_t n, int num_threads, const Accumul
   std::vector<Accumulator> accumulators(chunks, init);
   std::atomic<size_t> next{0};
   ThreadTeam& team = CallerTeam(threads);
-  team.Run(threads,
-           [&](int) {
-             for (size_t c = next++; c < chunks; c = next++) {
-               // A local accumulator: neighbouring chunks' accumulators share cache lines, and
-               // two threads writing them term by term made 2 threads no faster than 1.
-               Accumulator local = init;
-               body(n * c / chunks, n * (c + 1) / chunks, local);
-               accumulators[c] = std::move(local);
-             }
-           });
+  team.Run(threads, [&](int) {
+    for (size_t c = next++; c < chunks; c = next++) {
+      // A local accumulator: neighbouring chunks' accumulators share cache lines, and two
+      // threads writing them term by term made 2 threads no faster than 1.
+      Accumulator local = init;
+      body(n * c / chunks, n * (c + 1) / chunks, local);
+      accumulators[c] = std::move(local);
+    }
+  });
   return accumulators;
 }
 
