@@ -55,21 +55,28 @@ inline bool SmallestEigenvector(const Eigen::Matrix3d& A, Eigen::Vector3d* norma
   return true;
 }
 
-// Replaces the eigenvalues of a sample covariance by (1e-3, 1, 1), smallest first:
-// V diag(1e-3, 1, 1) V^T = I - (1 - 1e-3) n n^T with n the smallest eigenvalue's vector.
-// Closed form (~40 ns against ~120 ns for Eigen's computeDirect, which also finds the other
-// two vectors with acos/cos; measured 2026-12-01); computeDirect where the smallest
-// eigenvalue is repeated.
-inline Eigen::Matrix3d RegularizePlaneCovariance(const Eigen::Matrix3d& sample_covariance) {
+// The normal used by plane regularization: the unit eigenvector of the sample covariance's
+// smallest eigenvalue. Closed form (~40 ns against ~120 ns for Eigen's computeDirect, which
+// also finds the other two vectors with acos/cos; measured 2026-12-01); computeDirect where
+// the smallest eigenvalue is repeated.
+inline Eigen::Vector3d PlaneNormal(const Eigen::Matrix3d& sample_covariance) {
   Eigen::Vector3d n;
-  if (SmallestEigenvector(sample_covariance, &n)) {
-    return Eigen::Matrix3d::Identity() - (1.0 - kPlaneNormalEigenvalue) * n * n.transpose();
-  }
+  if (SmallestEigenvector(sample_covariance, &n)) return n;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
   eig.computeDirect(sample_covariance);
-  const Eigen::Vector3d values(kPlaneNormalEigenvalue, 1.0, 1.0);
-  const Eigen::Matrix3d& V = eig.eigenvectors();
-  return V * values.asDiagonal() * V.transpose();
+  return eig.eigenvectors().col(0);
+}
+
+// Eigenvalues (1e-3, 1, 1) along (normal, tangent, tangent): V diag(1e-3, 1, 1) V^T =
+// I - (1 - 1e-3) n n^T. A zero normal gives the identity (isotropic: no usable shape).
+inline Eigen::Matrix3d PlaneCovariance(const Eigen::Vector3d& normal) {
+  return Eigen::Matrix3d::Identity() -
+         (1.0 - kPlaneNormalEigenvalue) * normal * normal.transpose();
+}
+
+// Replaces the eigenvalues of a sample covariance by (1e-3, 1, 1), smallest first.
+inline Eigen::Matrix3d RegularizePlaneCovariance(const Eigen::Matrix3d& sample_covariance) {
+  return PlaneCovariance(PlaneNormal(sample_covariance));
 }
 
 // GICP weight W = (C_target + R C_source R^T)^-1, the inverse covariance of the residual.
