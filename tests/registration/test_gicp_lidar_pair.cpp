@@ -88,5 +88,21 @@ TEST_F(LidarPair, ConvergedGradientVanishes) {
   EXPECT_GT(Eigen::SelfAdjointEigenSolver<Matrix6d>(r.covariance).eigenvalues().minCoeff(), 0);
 }
 
+// Per-chunk sums in chunk order: the result does not depend on the thread count, bit for bit
+// (also when both clouds are prepared side by side).
+TEST_F(LidarPair, SameResultForAnyThreadCount) {
+  const PointCloud target = ReadCloud(kDir + "target.ply");
+  const PointCloud source = ReadCloud(kDir + "source.ply");
+  GicpParams one = params_, two = params_;
+  one.num_threads = 1;
+  two.num_threads = 2;
+  const RegistrationResult a = AlignGicp(target, source, SE3::Identity(), one);
+  const RegistrationResult b = AlignGicp(target, source, SE3::Identity(), two);
+  EXPECT_EQ(a.T_target_source.matrix(), b.T_target_source.matrix());
+  EXPECT_EQ(a.covariance, b.covariance);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(a.num_inliers, b.num_inliers);
+}
+
 }  // namespace
 }  // namespace mapdelta
