@@ -93,7 +93,8 @@ class GicpCloud {
 
   size_t size() const;
   const PointCloud& points() const;
-  // Unit-scale covariances: eigenvalues (1e-3, 1, 1) along (normal, tangent, tangent).
+  // Unit-scale covariances: eigenvalues (1e-3, 1, 1) along (normal, tangent, tangent), or the
+  // identity where the neighbourhood has no shape (built on the first call).
   const std::vector<Eigen::Matrix3f>& covariances() const;
   // Nearest point index and Euclidean distance; false if the cloud is empty.
   bool Nearest(const Point& query, size_t* index, float* distance) const;
