@@ -167,7 +167,8 @@ if [ "$report_only" = 0 ]; then
 fi
 
 say "results.json, report.md and plots"
-runs_json=$(find "$out/runs" -name run.json 2>/dev/null | sort | xargs -r cat | jq -s '.')
+runs_json='[]'  # a crowd-only run (--trials 0) has no runs/ folder
+[ -d "$out/runs" ] && runs_json=$(find "$out/runs" -name run.json | sort | xargs -r cat | jq -s '.')
 crowd_json=$( [ -f "$out/crowd/crowd.json" ] && cat "$out/crowd/crowd.json" || echo null)
 render_json=$( [ -f "$data/render_times.jsonl" ] && jq -s '.' "$data/render_times.jsonl" || echo '[]')
 jq -n --slurpfile p "$out/params.json" --argjson runs "$runs_json" --argjson crowd "$crowd_json" \

@@ -67,7 +67,8 @@ J() { jq -r "$@" "$res"; }
     echo
     echo "![th_f sweep, bound $b px](plots/thf_b$b.png)"
     echo
-    gnuplot <<EOG
+    # A crowd-only reproduction (--trials 0) has no sweep points to plot.
+    [ -s "$plots/thf_b$b.dat" ] && gnuplot <<EOG
 set terminal pngcairo size 640,420 font "sans,10"
 set output "$plots/thf_b$b.png"
 set title "th_f sweep (free-ray bound $b px), mean over runs"
@@ -109,7 +110,7 @@ EOG
     done
   echo
   echo "![fused vs VIO-only poses](plots/fig6.png)"
-  gnuplot <<EOG
+  [ -s "$plots/fig6.dat" ] && gnuplot <<EOG
 set terminal pngcairo size 900,420 font "sans,10" noenhanced
 set output "$plots/fig6.png"
 set title "Change metrics from fused vs VIO-only poses"
