@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
-#include <limits>
 #include <vector>
 
 #include "mapdelta/common/error.hpp"
@@ -40,20 +38,20 @@ octomap::point3d ToOcto(const Point& p) { return {p.x(), p.y(), p.z()}; }
 // only when the voxel changes (about 10x fewer look-ups than a plain voxel grid).
 class EndPointFilter {
  public:
-  explicit EndPointFilter(float leaf) : inv_leaf_(1.f / leaf) { slot_of_key_.reserve(8192); }
+  explicit EndPointFilter(float leaf) : inv_leaf_(1.f / leaf), slot_of_key_(8192) {}
   void Add(const Point& p) {
     const Eigen::Vector3f scaled = (p * inv_leaf_).array().floor();
     if (!scaled.allFinite() || scaled.cwiseAbs().maxCoeff() >= (1 << 20)) return;
     const auto coord = [](float v) { return static_cast<uint64_t>(static_cast<int64_t>(v) + (1 << 20)); };
     const uint64_t key = (coord(scaled.x()) << 42) | (coord(scaled.y()) << 21) | coord(scaled.z());
     if (!has_last_ || key != last_key_) {
-      const auto [it, inserted] = slot_of_key_.try_emplace(key, sums_.size());
+      const auto [slot, inserted] = slot_of_key_.Insert(key);
       if (inserted) {
         sums_.emplace_back(Eigen::Vector3d::Zero());
         counts_.push_back(0);
       }
       last_key_ = key;
-      last_slot_ = it->second;
+      last_slot_ = slot;
       has_last_ = true;
     }
     sums_[last_slot_] += p.cast<double>();
@@ -67,7 +65,7 @@ class EndPointFilter {
 
  private:
   float inv_leaf_;
-  std::unordered_map<uint64_t, size_t> slot_of_key_;
+  detail::FlatKeyIndex slot_of_key_;
   std::vector<Eigen::Vector3d> sums_;
   std::vector<uint32_t> counts_;
   bool has_last_ = false;
@@ -143,9 +141,9 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
   const std::vector<float> nearest = params.free_ray_bound_window_px > 0
                                          ? NearestDepthAround(depth, params.free_ray_bound_window_px, stride)
                                          : std::vector<float>();
-  for (int v = 0; v < camera.height; v += params.pixel_stride) {
+  for (int v = 0; v < camera.height; v += stride) {
     const float y = (static_cast<float>(v) - cy) * inv_fy;
-    for (int u = 0; u < camera.width; u += params.pixel_stride) {
+    for (int u = 0; u < camera.width; u += stride) {
       const float d = depth.at(u, v);
       const bool valid = std::isfinite(d) && d > 0.f;
       const bool hit = valid && d < max_depth;

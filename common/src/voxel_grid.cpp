@@ -1,9 +1,10 @@
 #include "mapdelta/common/voxel_grid.hpp"
 
 #include <cmath>
-#include <unordered_map>
+#include <vector>
 
 #include "mapdelta/common/error.hpp"
+#include "flat_key_set.hpp"
 
 namespace mapdelta {
 namespace {
@@ -11,7 +12,6 @@ namespace {
 struct Accumulator {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   uint32_t count = 0;
-  uint32_t order = 0;  // first-seen order keeps the output deterministic
 };
 
 // 21 bits per axis: +-1,048,576 voxels, i.e. +-419 km at 0.4 m.
@@ -30,22 +30,21 @@ PointCloud VoxelDownsample(const PointCloud& cloud, float leaf_m) {
     throw Error(ErrorCode::kInvalidArgument, "voxel leaf size must be positive");
   }
   const double inv = 1.0 / leaf_m;
-  std::unordered_map<uint64_t, Accumulator> voxels;
-  voxels.reserve(cloud.size() / 4 + 16);
+  // Voxel key -> accumulator index, in first-seen order (keeps the output deterministic).
+  detail::FlatKeyIndex voxel_of_key(cloud.size() / 4 + 16);
+  std::vector<Accumulator> voxels;
   for (const auto& p : cloud) {
     if (!p.allFinite()) continue;
     const uint64_t key = PackKey(static_cast<int64_t>(std::floor(p.x() * inv)),
                                  static_cast<int64_t>(std::floor(p.y() * inv)),
                                  static_cast<int64_t>(std::floor(p.z() * inv)));
-    auto [it, inserted] = voxels.try_emplace(key);
-    if (inserted) it->second.order = static_cast<uint32_t>(voxels.size() - 1);
-    it->second.sum += p.cast<double>();
-    ++it->second.count;
+    const auto [index, inserted] = voxel_of_key.Insert(key);
+    if (inserted) voxels.emplace_back();
+    voxels[index].sum += p.cast<double>();
+    ++voxels[index].count;
   }
   PointCloud out(voxels.size());
-  for (const auto& [key, acc] : voxels) {
-    out[acc.order] = (acc.sum / acc.count).cast<float>();
-  }
+  for (size_t i = 0; i < voxels.size(); ++i) out[i] = (voxels[i].sum / voxels[i].count).cast<float>();
   return out;
 }
 

@@ -16,7 +16,6 @@
 #include "mapdelta/common/registration/se3_tangent.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
 #include "sorted_cells.hpp"
-#include "voxel_centroids.hpp"
 
 namespace mapdelta::detail {
 namespace {
@@ -139,26 +138,6 @@ TEST(SortedCells, BlocksMatchBruteForce) {
       }
       EXPECT_EQ(found[cells.CellOf(i)], expected) << "point " << i << " radius " << radius;
     }
-  }
-}
-
-// The same centroids as VoxelDownsample, bit for bit, in another order.
-TEST(VoxelCentroids, EqualVoxelDownsample) {
-  std::mt19937 rng(23);
-  PointCloud cloud = RandomCloud(20000, 8, rng);
-  for (auto& p : cloud) p += Point(1000.f, -2000.f, 30.f);  // map coordinates
-  cloud[5] = Point(std::numeric_limits<float>::quiet_NaN(), 0, 0);
-  auto sorted = [](PointCloud c) {
-    std::sort(c.begin(), c.end(), [](const Point& a, const Point& b) {
-      return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
-    });
-    return c;
-  };
-  for (const float leaf : {0.25f, 0.4f, 1.0f}) {
-    const PointCloud expected = sorted(VoxelDownsample(cloud, leaf));
-    const PointCloud actual = sorted(VoxelCentroids(cloud, leaf));
-    ASSERT_EQ(actual.size(), expected.size()) << "leaf " << leaf;
-    for (size_t i = 0; i < actual.size(); ++i) ASSERT_EQ(actual[i], expected[i]) << "leaf " << leaf;
   }
 }
 

@@ -5,11 +5,11 @@
 #include <string>
 
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/voxel_grid.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
 #include "covariance_estimation.hpp"
 #include "mapdelta/common/registration/gicp_factor.hpp"
 #include "gicp_cloud_access.hpp"
-#include "voxel_centroids.hpp"
 
 namespace mapdelta {
 namespace {
@@ -79,7 +79,7 @@ GicpCloud::GicpCloud(const PointCloud& cloud, const GicpParams& params) {
   ValidateGicpParams(params);
   PointCloud points;
   if (params.voxel_m > 0) {
-    points = detail::VoxelCentroids(cloud, static_cast<float>(params.voxel_m));  // skips non-finite
+    points = VoxelDownsample(cloud, static_cast<float>(params.voxel_m));  // skips non-finite
   } else {
     points = cloud;
     RemoveNonFinite(&points);
