@@ -29,7 +29,7 @@ DepthImage TemporalFilter(const std::vector<DepthFrame>& frames, size_t center,
   for (int u = 0; u < di.width; ++u) x_of_u[static_cast<size_t>(u)] = (u - camera.cx) / camera.fx;
   for (int v = 0; v < di.height; ++v) y_of_v[static_cast<size_t>(v)] = (v - camera.cy) / camera.fy;
   // std::lround without the library call: half away from zero.
-  const auto round = [](double x) { return static_cast<long>(x >= 0 ? x + 0.5 : x - 0.5); };
+  const auto nearest_pixel = [](double x) { return static_cast<long>(x >= 0 ? x + 0.5 : x - 0.5); };
   for (size_t j = 0; j < frames.size(); ++j) {
     if (j == center || frames[j].depth == nullptr) continue;
     const DepthImage& dj = *frames[j].depth;
@@ -54,8 +54,8 @@ DepthImage TemporalFilter(const std::vector<DepthFrame>& frames, size_t center,
         const Eigen::Vector3d p_j = R_ji * (d_here * Eigen::Vector3d(x_of_u[static_cast<size_t>(u)], y, 1.0)) + t_ji;
         if (p_j.z() <= 1e-6) continue;
         const double inv_z = 1.0 / p_j.z();
-        const long uj = round(camera.fx * p_j.x() * inv_z + camera.cx);
-        const long vj = round(camera.fy * p_j.y() * inv_z + camera.cy);
+        const long uj = nearest_pixel(camera.fx * p_j.x() * inv_z + camera.cx);
+        const long vj = nearest_pixel(camera.fy * p_j.y() * inv_z + camera.cy);
         if (uj < 0 || vj < 0 || uj >= dj.width || vj >= dj.height) continue;
         const float zj = dj.at(static_cast<int>(uj), static_cast<int>(vj));
         if (!(zj > 0.f)) continue;
