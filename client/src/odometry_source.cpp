@@ -15,7 +15,7 @@ TrajectoryOdometrySource::TrajectoryOdometrySource(const std::string& path)
 TrajectoryOdometrySource::TrajectoryOdometrySource(Trajectory trajectory)
     : trajectory_(std::move(trajectory)) {}
 
-std::optional<OdometrySample> TrajectoryOdometrySource::At(int64_t t_ns) {
+std::optional<OdometrySample> TrajectoryOdometrySource::At(int64_t t_ns, const StereoImages* /*images*/) {
   SE3 T;
   if (!InterpolateAt(trajectory_, t_ns, &T)) return std::nullopt;
   return OdometrySample{T, std::nullopt};
@@ -32,8 +32,8 @@ InjectedResetOdometrySource::InjectedResetOdometrySource(OdometrySource* inner, 
   }
 }
 
-std::optional<OdometrySample> InjectedResetOdometrySource::At(int64_t t_ns) {
-  std::optional<OdometrySample> sample = inner_->At(t_ns);
+std::optional<OdometrySample> InjectedResetOdometrySource::At(int64_t t_ns, const StereoImages* images) {
+  std::optional<OdometrySample> sample = inner_->At(t_ns, images);
   if (!sample || t_ns < reset_t_ns_) return sample;
   if (t_ns < gap_end_t_ns_) return std::nullopt;
   sample->T_odom_body = T_new_old_ * sample->T_odom_body;

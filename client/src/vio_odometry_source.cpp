@@ -1,9 +1,8 @@
 #include "mapdelta/client/vio_odometry_source.hpp"
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-
+#include <deque>
 #include <map>
+#include <mutex>
 
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
@@ -17,6 +16,21 @@ struct VioOdometrySource::Impl {
   std::map<int64_t, StereoFrameFiles> frames;
   size_t next_imu = 0;
   int resets = 0;  // also the segment of the poses reported now
+  std::mutex prepared_mutex;
+  std::deque<vio::TrackedFrame> prepared;  // front-end output of frames At() has not reached
+
+  static vio::GrayImageView View(const GrayImage& image) {
+    return {image.width, image.height, image.width, image.pixels.data()};
+  }
+  // The prepared frame at t_ns, if PrepareFrame ran for it (older ones were never asked).
+  std::optional<vio::TrackedFrame> TakePrepared(int64_t t_ns) {
+    std::lock_guard lock(prepared_mutex);
+    while (!prepared.empty() && prepared.front().features.t_ns < t_ns) prepared.pop_front();
+    if (prepared.empty() || prepared.front().features.t_ns != t_ns) return std::nullopt;
+    vio::TrackedFrame f = std::move(prepared.front());
+    prepared.pop_front();
+    return f;
+  }
 };
 
 VioOdometrySource::VioOdometrySource(const EurocSequence& sequence) : impl_(std::make_unique<Impl>()) {
@@ -34,7 +48,7 @@ VioOdometrySource::~VioOdometrySource() = default;
 
 int VioOdometrySource::resets() const { return impl_->resets; }
 
-std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns) {
+std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns, const StereoImages* images) {
   const auto it = impl_->frames.find(t_ns);
   if (it == impl_->frames.end()) return std::nullopt;
   // IMU up to and one past the frame time, as the VIO's API asks.
@@ -44,12 +58,17 @@ std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns) {
     impl_->vio->AddImu(imu[impl_->next_imu++]);
     if (past) break;
   }
-  const cv::Mat left = cv::imread(it->second.left_path, cv::IMREAD_GRAYSCALE);
-  const cv::Mat right = cv::imread(it->second.right_path, cv::IMREAD_GRAYSCALE);
-  if (left.empty() || right.empty()) throw Error(ErrorCode::kIo, it->second.left_path + ": cannot read stereo frame");
-  const vio::GrayImageView lv{left.cols, left.rows, static_cast<int>(left.step), left.data};
-  const vio::GrayImageView rv{right.cols, right.rows, static_cast<int>(right.step), right.data};
-  const vio::FrameEstimate e = impl_->vio->AddStereoFrame(t_ns, lv, rv);
+  std::optional<vio::TrackedFrame> tracked = impl_->TakePrepared(t_ns);
+  if (!tracked) {
+    if (images != nullptr) {
+      tracked = impl_->vio->TrackFrame(t_ns, Impl::View(images->left), Impl::View(images->right));
+    } else {
+      const GrayImage left = ReadGrayImage(it->second.left_path);
+      const GrayImage right = ReadGrayImage(it->second.right_path);
+      tracked = impl_->vio->TrackFrame(t_ns, Impl::View(left), Impl::View(right));
+    }
+  }
+  const vio::FrameEstimate e = impl_->vio->AddTrackedFrame(*tracked);
   if (e.reset) {
     ++impl_->resets;
     MD_LOG(kWarn, "VIO reset at t_ns " << t_ns << ": odometry segment " << impl_->resets
@@ -58,6 +77,13 @@ std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns) {
   if (!e.initialized) return std::nullopt;
   OdometrySample sample{e.T_world_body, std::nullopt, impl_->resets};
   return sample;
+}
+
+void VioOdometrySource::PrepareFrame(int64_t t_ns, const StereoImages& images) {
+  if (impl_->frames.count(t_ns) == 0) return;
+  vio::TrackedFrame f = impl_->vio->TrackFrame(t_ns, Impl::View(images.left), Impl::View(images.right));
+  std::lock_guard lock(impl_->prepared_mutex);
+  impl_->prepared.push_back(std::move(f));
 }
 
 }  // namespace mapdelta::client

@@ -233,15 +233,20 @@ EstimatorOutput SlidingWindowEstimator::AddFrame(const FrameFeatures& features,
   Frame* added = frame.get();
   window_.push_back(std::move(frame));
   AddObservations(features);
-  for (auto& [id, lm] : landmarks_) {
-    if (!lm.has_depth) Triangulate(&lm);
+  // A non-keyframe leaves the window at the next frame: only its own state needs solving.
+  const bool motion_only = !added->keyframe && config_.motion_only_non_keyframes;
+  // A motion-only solve holds depths fixed: a depth triangulated from this frame's predicted
+  // pose would be held at a value the prediction error shaped. Such landmarks wait for the
+  // next keyframe, whose joint solve refines them.
+  if (!motion_only) {
+    for (auto& [id, lm] : landmarks_) {
+      if (!lm.has_depth) Triangulate(&lm);
+    }
   }
 
   // 3. Optimize and clean up.
   const auto t_opt = std::chrono::steady_clock::now();
-  // A non-keyframe leaves the window at the next frame: only its own state needs solving.
-  Optimize(config_.solver_iterations, config_.solver_max_time_s,
-           !added->keyframe && config_.motion_only_non_keyframes);
+  Optimize(config_.solver_iterations, config_.solver_max_time_s, motion_only);
   RemoveOutliers();
   out.optimize_ms = MsSince(t_opt);
 

@@ -66,6 +66,7 @@ struct StereoInertialOdometry::Impl {
   std::unique_ptr<SlidingWindowEstimator> estimator;
   std::deque<ImuSample> imu;
   std::optional<ImuSample> boundary;  // IMU interpolated at the previous frame time
+  std::optional<int64_t> last_tracked_t_ns;  // front-end side of the frame-order check
   std::vector<KeyframeEstimate> finalized;
   StageTimes total;
   int frames = 0;
@@ -151,10 +152,13 @@ void StereoInertialOdometry::AddImu(const ImuSample& sample) {
 
 FrameEstimate StereoInertialOdometry::AddStereoFrame(int64_t t_ns, const GrayImageView& left,
                                                      const GrayImageView& right) {
+  return AddTrackedFrame(TrackFrame(t_ns, left, right));
+}
+
+TrackedFrame StereoInertialOdometry::TrackFrame(int64_t t_ns, const GrayImageView& left,
+                                                const GrayImageView& right) {
   Impl& m = *impl_;
   const auto t_start = Clock::now();
-  FrameEstimate e;
-  e.t_ns = t_ns;
   if (!left.data || !right.data || left.width != right.width || left.height != right.height ||
       left.width != m.cam0.intrinsics.width || left.height != m.cam0.intrinsics.height) {
     throw Error(ErrorCode::kInvalidArgument, "vio: frame " + std::to_string(t_ns) +
@@ -162,10 +166,10 @@ FrameEstimate StereoInertialOdometry::AddStereoFrame(int64_t t_ns, const GrayIma
                                                  std::to_string(m.cam0.intrinsics.width) + "x" +
                                                  std::to_string(m.cam0.intrinsics.height));
   }
-  if (m.boundary && t_ns <= m.boundary->t_ns) {
+  if (m.last_tracked_t_ns && t_ns <= *m.last_tracked_t_ns) {
     throw Error(ErrorCode::kInvalidArgument, "vio: frame times must increase");
   }
-  // 1. Front end.
+  m.last_tracked_t_ns = t_ns;
   cv::Mat l(left.height, left.width, CV_8UC1, const_cast<uint8_t*>(left.data), left.stride_bytes);
   cv::Mat r(right.height, right.width, CV_8UC1, const_cast<uint8_t*>(right.data), right.stride_bytes);
   if (m.rectifier) {
@@ -174,9 +178,24 @@ FrameEstimate StereoInertialOdometry::AddStereoFrame(int64_t t_ns, const GrayIma
     l = m.rectified[0];
     r = m.rectified[1];
   }
-  const FrameFeatures features = m.Normalize(t_ns, m.tracker.Track(l, r));
+  TrackedFrame tracked;
+  tracked.features = m.Normalize(t_ns, m.tracker.Track(l, r));
+  tracked.frontend_ms = MsSince(t_start);
+  return tracked;
+}
+
+FrameEstimate StereoInertialOdometry::AddTrackedFrame(const TrackedFrame& tracked) {
+  Impl& m = *impl_;
+  const auto t_start = Clock::now();
+  const FrameFeatures& features = tracked.features;
+  const int64_t t_ns = features.t_ns;
+  FrameEstimate e;
+  e.t_ns = t_ns;
+  if (m.boundary && t_ns <= m.boundary->t_ns) {
+    throw Error(ErrorCode::kInvalidArgument, "vio: frame times must increase");
+  }
   e.features = static_cast<int>(features.features.size());
-  e.times.frontend_ms = MsSince(t_start);
+  e.times.frontend_ms = tracked.frontend_ms;
   const ImuPreintegration pre = m.PreintegrateTo(t_ns);
   ++m.frames;
 
@@ -216,7 +235,7 @@ FrameEstimate StereoInertialOdometry::AddStereoFrame(int64_t t_ns, const GrayIma
       m.Collect();
     }
   }
-  e.times.total_ms = MsSince(t_start);
+  e.times.total_ms = tracked.frontend_ms + MsSince(t_start);
   m.total += e.times;
   return e;
 }

@@ -2,6 +2,10 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include <exception>
+#include <thread>
+
+#include "mapdelta/common/bounded_queue.hpp"
 #include "mapdelta/common/error.hpp"
 
 namespace mapdelta::vio {
@@ -17,6 +21,14 @@ GrayImageView View(const cv::Mat& m) {
   return {m.cols, m.rows, static_cast<int>(m.step), m.data};
 }
 
+TrackedFrame ReadAndTrack(StereoInertialOdometry* vio, const StereoFrameFiles& frame) {
+  const cv::Mat left = ReadGray(frame.left_path);
+  const cv::Mat right = ReadGray(frame.right_path);
+  return vio->TrackFrame(frame.t_ns, View(left), View(right));
+}
+
+constexpr size_t kTrackedAhead = 4;  // frames the front-end thread may run ahead
+
 }  // namespace
 
 SequenceRunResult RunSequence(const EurocSequence& sequence, const VioConfig& config,
@@ -29,14 +41,43 @@ SequenceRunResult RunSequence(const EurocSequence& sequence, const VioConfig& co
   SequenceRunResult result;
   size_t imu_index = 0;
   const auto& imu = sequence.imu_samples;
+  // The front end, on its own thread when pipelined.
+  BoundedQueue<TrackedFrame> tracked(kTrackedAhead);
+  std::exception_ptr frontend_error;
+  std::thread frontend;
+  if (options.pipelined) {
+    frontend = std::thread([&] {
+      try {
+        for (int i = 0; i < total; ++i) {
+          if (!tracked.Push(ReadAndTrack(&vio, frames[i]))) break;
+        }
+      } catch (...) {
+        frontend_error = std::current_exception();
+      }
+      tracked.Close();
+    });
+  }
+  struct JoinOnExit {
+    std::thread* t;
+    BoundedQueue<TrackedFrame>* q;
+    ~JoinOnExit() {
+      q->Close();
+      if (t->joinable()) t->join();
+    }
+  } join_on_exit{&frontend, &tracked};
   for (int i = 0; i < total; ++i) {
     const auto& frame = frames[i];
     // Feed IMU up to the frame time plus one sample after it (for interpolation).
     while (imu_index < imu.size() && imu[imu_index].t_ns <= frame.t_ns) vio.AddImu(imu[imu_index++]);
     if (imu_index < imu.size()) vio.AddImu(imu[imu_index]);
-    const cv::Mat left = ReadGray(frame.left_path);
-    const cv::Mat right = ReadGray(frame.right_path);
-    const FrameEstimate e = vio.AddStereoFrame(frame.t_ns, View(left), View(right));
+    std::optional<TrackedFrame> f;
+    if (options.pipelined) {
+      f = tracked.Pop();
+      if (!f) break;  // the front end failed: rethrown below
+    } else {
+      f = ReadAndTrack(&vio, frame);
+    }
+    const FrameEstimate e = vio.AddTrackedFrame(*f);
     ++result.processed;
     if (e.reset) {
       ++result.resets;
@@ -48,6 +89,9 @@ SequenceRunResult RunSequence(const EurocSequence& sequence, const VioConfig& co
     }
     if (options.on_frame) options.on_frame(i, total, e);
   }
+  tracked.Close();
+  if (frontend.joinable()) frontend.join();
+  if (frontend_error) std::rethrow_exception(frontend_error);
   vio.Finish();
   for (const auto& k : vio.TakeFinalizedKeyframes()) {
     result.keyframes.push_back({k.t_ns, k.T_world_body});

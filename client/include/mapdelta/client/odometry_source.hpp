@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "mapdelta/client/image.hpp"
 #include "mapdelta/common/pose.hpp"
 
 namespace mapdelta::client {
@@ -19,12 +20,26 @@ struct OdometrySample {
   int segment = 0;
 };
 
+// A stereo frame already decoded (the pipeline decodes on its own thread, once for the
+// odometry and the keyframe depth).
+struct StereoImages {
+  const GrayImage& left;
+  const GrayImage& right;
+};
+
 class OdometrySource {
  public:
   virtual ~OdometrySource() = default;
   // The odometry pose at an image time; nullopt if the source has none (not initialized yet,
-  // or outside the trajectory). Called with increasing t_ns.
-  virtual std::optional<OdometrySample> At(int64_t t_ns) = 0;
+  // or outside the trajectory). Called with increasing t_ns. `images` is the frame at t_ns,
+  // decoded, when NeedsImages() (else nullptr; a source needing them then reads them itself).
+  virtual std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* images) = 0;
+  // Whether At() uses the frame's images: the pipeline then decodes every frame ahead.
+  virtual bool NeedsImages() const { return false; }
+  // Frame-local work that needs no earlier pose (a VIO's feature tracking), done ahead of
+  // At(): with NeedsImages() the pipeline calls it on its decoding thread for every frame, in
+  // order, up to a few frames before At(t_ns) runs on another thread.
+  virtual void PrepareFrame(int64_t /*t_ns*/, const StereoImages& /*images*/) {}
 };
 
 // A recorded trajectory, interpolated at the asked times. Throws Error naming the file.
@@ -32,7 +47,7 @@ class TrajectoryOdometrySource : public OdometrySource {
  public:
   explicit TrajectoryOdometrySource(const std::string& path);
   explicit TrajectoryOdometrySource(Trajectory trajectory);
-  std::optional<OdometrySample> At(int64_t t_ns) override;
+  std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* images) override;
   size_t size() const { return trajectory_.size(); }
 
  private:
@@ -47,7 +62,9 @@ class TrajectoryOdometrySource : public OdometrySource {
 class InjectedResetOdometrySource : public OdometrySource {
  public:
   InjectedResetOdometrySource(OdometrySource* inner, int64_t reset_t_ns, double gap_s, const SE3& T_new_old);
-  std::optional<OdometrySample> At(int64_t t_ns) override;
+  std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* images) override;
+  bool NeedsImages() const override { return inner_->NeedsImages(); }
+  void PrepareFrame(int64_t t_ns, const StereoImages& images) override { inner_->PrepareFrame(t_ns, images); }
 
  private:
   OdometrySource* inner_;

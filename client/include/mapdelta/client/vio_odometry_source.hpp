@@ -14,10 +14,15 @@ class VioOdometrySource : public OdometrySource {
   // The sequence must outlive the source. Throws Error(kUnsupported) for non-rectified rigs.
   explicit VioOdometrySource(const EurocSequence& sequence);
   ~VioOdometrySource() override;
-  // Reads the stereo frame at t_ns, runs the VIO; nullopt until it is initialized or when
-  // t_ns is not a stereo frame of the sequence. After a VIO reset the odometry frame
-  // changes: the samples after it carry the next segment number (OdometrySample::segment).
-  std::optional<OdometrySample> At(int64_t t_ns) override;
+  // Runs the VIO on the stereo frame at t_ns (`images`, or read from the sequence when null);
+  // nullopt until it is initialized or when t_ns is not a stereo frame of the sequence. After
+  // a VIO reset the odometry frame changes: the samples after it carry the next segment
+  // number (OdometrySample::segment).
+  std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* images) override;
+  bool NeedsImages() const override { return true; }
+  // Runs the VIO's front end (feature tracking) on the frame; At(t_ns) then only estimates.
+  // Either every frame is prepared or none.
+  void PrepareFrame(int64_t t_ns, const StereoImages& images) override;
   int resets() const;
 
  private:

@@ -57,6 +57,12 @@ struct FrameEstimate {
   StageTimes times;
 };
 
+// The front end's output for one frame (TrackFrame), input of AddTrackedFrame.
+struct TrackedFrame {
+  FrameFeatures features;  // normalized image coordinates of the (rectified) cameras
+  double frontend_ms = 0;
+};
+
 struct KeyframeEstimate {
   int64_t t_ns = 0;
   SE3 T_world_body = SE3::Identity();
@@ -74,7 +80,14 @@ class StereoInertialOdometry {
   StereoInertialOdometry& operator=(const StereoInertialOdometry&) = delete;
 
   void AddImu(const ImuSample& sample);
+  // Front end then estimator: AddTrackedFrame(TrackFrame(t_ns, left, right)).
   FrameEstimate AddStereoFrame(int64_t t_ns, const GrayImageView& left, const GrayImageView& right);
+  // The two halves of AddStereoFrame, for callers that pipeline them: TrackFrame (feature
+  // tracking, frame-local) may run on another thread, for a later frame, while AddImu /
+  // AddTrackedFrame run for an earlier one. Each half is called in frame order and is not
+  // concurrent with itself; every tracked frame must be added, in the same order.
+  TrackedFrame TrackFrame(int64_t t_ns, const GrayImageView& left, const GrayImageView& right);
+  FrameEstimate AddTrackedFrame(const TrackedFrame& frame);
   // Keyframes whose window optimization is over (final estimates), oldest first.
   std::vector<KeyframeEstimate> TakeFinalizedKeyframes();
   // End of input: finalizes the keyframes still in the window.

@@ -13,6 +13,9 @@ namespace mapdelta::vio {
 
 struct SequenceRunOptions {
   int max_frames = 0;  // 0: all
+  // Decode and track (front end) on a second thread, up to a few frames ahead of the
+  // estimator: the same estimates (TrackFrame / AddTrackedFrame), less wall time.
+  bool pipelined = false;
   // Called after every frame (progress reporting); may be empty.
   std::function<void(int frame, int total, const FrameEstimate&)> on_frame;
 };

@@ -7,7 +7,7 @@
 #include <mutex>
 #include <optional>
 
-namespace mapdelta::client {
+namespace mapdelta {
 
 template <typename T>
 class BoundedQueue {
@@ -49,4 +49,4 @@ class BoundedQueue {
   bool closed_ = false;
 };
 
-}  // namespace mapdelta::client
+}  // namespace mapdelta
