@@ -358,7 +358,7 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
   // odometry, once for it and the keyframe depth, and runs the odometry's frame-local part
   // (the VIO's feature tracking). PNG decoding was ~13 % of the VIO thread, tracking ~35 %.
   BoundedQueue<DecodedFrame> decoded_queue(kDecodedQueueCapacity);
-  const bool decode_ahead = in.odometry->NeedsImages();
+  const bool decode_ahead = in.decode_ahead && in.odometry->NeedsImages();
   std::thread stage_decode;
   if (decode_ahead) {
     stage_decode = std::thread([&] {

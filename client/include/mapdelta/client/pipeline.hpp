@@ -28,6 +28,10 @@ struct PipelineInputs {
   std::optional<SE3> initial_T_map_body; // guess at the first keyframe; null: ground truth
   int max_frames = 0;                    // 0: all frames
   int num_threads = 2;                   // for GICP
+  // Decode frames (and run the odometry's PrepareFrame, the VIO's tracking) on a thread of
+  // their own, ahead of the odometry. false: the odometry reads and tracks each frame on the
+  // odometry thread (the structure before 2026-12-01; bench_client's baseline).
+  bool decode_ahead = true;
 };
 
 // One registration attempt, for reports (registrations.csv, covariance calibration).
