@@ -32,7 +32,7 @@ const char* kUsage =
     "                        init_span (s), init_iterations, analytic (0/1),\n"
     "                        motion_only (0/1), max_features, klt_window, klt_levels,\n"
     "                        min_distance, pixel_sigma, huber, parallax, right_other (0/1),\n"
-    "                        covariance (0/1), min_zncc, outlier (sigmas)\n"
+    "                        covariance (0/1), min_zncc, outlier (sigmas), sigma_ba (m/s^2)\n"
     "  --log-level L         debug|info|warn|error (default info)\n"
     "  --help                this text\n"
     "Rectified, undistorted stereo is required (as mapdelta-sim writes).\n";
@@ -56,6 +56,7 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   }
   const std::string key = kv.substr(0, eq);
   if (key == "iterations") c->solver_iterations = static_cast<int>(v);
+  else if (key == "sigma_ba") c->init_accel_bias_sigma = v;
   else if (key == "window") c->window_keyframes = static_cast<int>(v);
   else if (key == "init_frames") c->init_frames = static_cast<int>(v);
   else if (key == "init_span") c->init_min_span_s = v;

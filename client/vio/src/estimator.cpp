@@ -97,6 +97,7 @@ NavState SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
   // The gauge prior on the first frame starts the marginalization chain.
   Frame& first = *window_.front();
   auto* prior = new StatePrior;
+  prior->sigma_ba = config_.init_accel_bias_sigma;
   prior->p0 = Eigen::Map<const Eigen::Vector3d>(first.pose);
   prior->q0 = Eigen::Map<const Eigen::Quaterniond>(first.pose + 3);
   prior->bg0 = Eigen::Map<const Eigen::Vector3d>(first.sb + 3);
