@@ -27,6 +27,7 @@
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/log.hpp"
+#include "sequence_bench_args.hpp"
 
 namespace {
 
@@ -84,40 +85,15 @@ Row Run(const std::string& name, const std::string& sequence_dir, const std::str
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string sequence, prior;
-  double seconds = 0;
-  bool baseline = true, prior_given = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::cout << kUsage;
-      return 0;
-    } else if (a == "--sequence" && i + 1 < argc) {
-      sequence = argv[++i];
-    } else if (a == "--prior" && i + 1 < argc) {
-      prior = argv[++i];
-      prior_given = true;
-    } else if (a == "--seconds" && i + 1 < argc) {
-      char* end = nullptr;
-      seconds = std::strtod(argv[++i], &end);
-      if (*end != '\0' || !(seconds > 0)) {
-        std::cerr << "bench_client: --seconds expects a positive number\n";
-        return 2;
-      }
-    } else if (a == "--no-baseline") {
-      baseline = false;
-    } else {
-      std::cerr << "bench_client: unknown or incomplete option " << a << "\n" << kUsage;
-      return 2;
-    }
+  mapdelta::bench::SequenceBenchArgs args;
+  if (auto exit_code = mapdelta::bench::ParseSequenceBenchArgs(argc, argv, "bench_client", kUsage, true, &args)) {
+    return *exit_code;
   }
-  if (sequence.empty()) {
-    std::cerr << "bench_client: --sequence is required\n" << kUsage;
-    return 2;
-  }
+  const std::string& sequence = args.sequence;
   mapdelta::log::SetLevel(mapdelta::log::Level::kWarn);
   try {
-    if (!prior_given) {
+    std::string prior = args.prior.value_or("");
+    if (!args.prior) {
       const std::string guess = sequence + "/../../scenes/original/cloud.pcd";
       if (std::FILE* f = std::fopen(guess.c_str(), "rb")) {
         std::fclose(f);
@@ -126,9 +102,9 @@ int main(int argc, char** argv) {
     }
     const auto seq = mapdelta::ReadEurocSequence(sequence);
     const auto frames = seq.StereoFrames();
-    if (frames.size() < 2) throw mapdelta::Error(mapdelta::ErrorCode::kInvalidArgument, sequence + ": fewer than 2 frames");
-    const double rate = 1e9 * static_cast<double>(frames.size() - 1) /
-                        static_cast<double>(frames.back().t_ns - frames.front().t_ns);
+    const double rate = mapdelta::bench::StereoFrameRate(seq, sequence);
+    const double seconds = args.seconds;
+    const bool baseline = args.baseline;
     int max_frames = 0;
     if (seconds > 0) max_frames = static_cast<int>(seconds * rate) + 1;
     const int n = max_frames > 0 ? std::min<int>(max_frames, static_cast<int>(frames.size())) : static_cast<int>(frames.size());

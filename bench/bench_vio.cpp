@@ -24,6 +24,7 @@
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/vio/odometry.hpp"
+#include "sequence_bench_args.hpp"
 
 namespace {
 
@@ -95,41 +96,18 @@ void Print(const Row& r, double cam_rate_hz) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string sequence;
-  double seconds = 20;
-  bool baseline = true;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::cout << kUsage;
-      return 0;
-    } else if (a == "--sequence" && i + 1 < argc) {
-      sequence = argv[++i];
-    } else if (a == "--seconds" && i + 1 < argc) {
-      char* end = nullptr;
-      seconds = std::strtod(argv[++i], &end);
-      if (*end != '\0' || !(seconds > 0)) {
-        std::cerr << "bench_vio: --seconds expects a positive number\n";
-        return 2;
-      }
-    } else if (a == "--no-baseline") {
-      baseline = false;
-    } else {
-      std::cerr << "bench_vio: unknown or incomplete option " << a << "\n" << kUsage;
-      return 2;
-    }
+  mapdelta::bench::SequenceBenchArgs args;
+  args.seconds = 20;
+  if (auto exit_code = mapdelta::bench::ParseSequenceBenchArgs(argc, argv, "bench_vio", kUsage, false, &args)) {
+    return *exit_code;
   }
-  if (sequence.empty()) {
-    std::cerr << "bench_vio: --sequence is required\n" << kUsage;
-    return 2;
-  }
+  const std::string& sequence = args.sequence;
+  const double seconds = args.seconds;
+  const bool baseline = args.baseline;
   mapdelta::log::SetLevel(mapdelta::log::Level::kWarn);
   try {
     const auto seq = mapdelta::ReadEurocSequence(sequence);
-    const auto frames = seq.StereoFrames();
-    if (frames.size() < 2) throw mapdelta::Error(mapdelta::ErrorCode::kInvalidArgument, sequence + ": fewer than 2 frames");
-    const double rate = 1e9 * static_cast<double>(frames.size() - 1) /
-                        static_cast<double>(frames.back().t_ns - frames.front().t_ns);
+    const double rate = mapdelta::bench::StereoFrameRate(seq, sequence);
     std::printf("bench_vio: %s, %dx%d at %.1f Hz, first %.0f s (budget %.1f ms/frame)\n",
                 sequence.c_str(), seq.cam0.intrinsics.width, seq.cam0.intrinsics.height, rate,
                 seconds, 1e3 / rate);
