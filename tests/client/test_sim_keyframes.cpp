@@ -6,12 +6,15 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <mutex>
+#include <set>
 
 #include "mapdelta/client/image.hpp"
 #include "mapdelta/client/odometry_source.hpp"
 #include "mapdelta/client/pipeline.hpp"
 #include "mapdelta/client/stereo_depth.hpp"
 #include "mapdelta/client/temporal_filter.hpp"
+#include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/keyframes.hpp"
 #include "support/temp_dir.hpp"
@@ -117,6 +120,84 @@ TEST(SimKeyframes, PipelineStartsFromARoughGuessAndWritesKeyframes) {
   EXPECT_EQ(folder.camera.width, 400 - 64);
   EXPECT_DOUBLE_EQ(folder.camera.cx, MakeRectifiedStereoRig(seq).left.cx - 64);
   EXPECT_GT(folder.keyframes[2].depth.CountValid(), 1000u);
+}
+
+// Odometry that asks for the images (like the VIO) but answers from ground truth: checks the
+// pipeline's decode-ahead contract (every frame prepared once, in order, before At(), which
+// gets the same decoded images).
+class ImageCheckingOdometry : public OdometrySource {
+ public:
+  explicit ImageCheckingOdometry(const Trajectory& truth) : inner_(truth) {}
+  bool NeedsImages() const override { return true; }
+  void PrepareFrame(int64_t t_ns, const StereoImages& images) override {
+    std::lock_guard lock(mutex_);
+    if (!prepared_.empty() && t_ns <= *prepared_.rbegin()) ++out_of_order_;
+    prepared_.insert(t_ns);
+    if (images.left.pixels.empty() || images.right.pixels.empty()) ++bad_images_;
+  }
+  std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* images) override {
+    std::lock_guard lock(mutex_);
+    if (prepared_.count(t_ns) == 0) ++unprepared_;
+    if (images == nullptr || images->left.width == 0 || images->right.width == 0) ++bad_images_;
+    ++asked_;
+    return inner_.At(t_ns, nullptr);
+  }
+  TrajectoryOdometrySource inner_;
+  std::mutex mutex_;
+  std::set<int64_t> prepared_;
+  int out_of_order_ = 0, unprepared_ = 0, bad_images_ = 0, asked_ = 0;
+};
+
+PipelineInputs TruthInputs(const std::string& sequence, OdometrySource* odometry) {
+  PipelineInputs in;
+  in.sequence_dir = sequence;
+  in.odometry = odometry;
+  return in;
+}
+
+TEST(SimKeyframes, DecodeAheadPreparesEveryFrameInOrderAndChangesNoResult) {
+  const EurocSequence seq = ReadEurocSequence(kSequence);
+  ClientConfig config;
+  config.keyframes.min_translation_m = 0.5;
+  ImageCheckingOdometry ahead(seq.groundtruth), inline_odometry(seq.groundtruth);
+  PipelineInputs a = TruthInputs(kSequence, &ahead);
+  PipelineInputs b = TruthInputs(kSequence, &inline_odometry);
+  b.decode_ahead = false;
+  const PipelineResult ra = RunPipeline(config, a);
+  const PipelineResult rb = RunPipeline(config, b);
+  EXPECT_EQ(ahead.asked_, 5);
+  EXPECT_EQ(ahead.prepared_.size(), 5u);
+  EXPECT_EQ(ahead.out_of_order_, 0);
+  EXPECT_EQ(ahead.unprepared_, 0);
+  EXPECT_EQ(ahead.bad_images_, 0);
+  EXPECT_TRUE(inline_odometry.prepared_.empty());  // without decode-ahead nobody prepares
+  EXPECT_EQ(inline_odometry.bad_images_, 5);        // ... and At() gets no images
+  ASSERT_EQ(ra.keyframes, 5u);
+  ASSERT_EQ(ra.fused_T_map_body.size(), rb.fused_T_map_body.size());
+  for (size_t k = 0; k < ra.fused_T_map_body.size(); ++k) {
+    EXPECT_TRUE(ra.fused_T_map_body[k].T.isApprox(rb.fused_T_map_body[k].T, 1e-12));
+  }
+}
+
+TEST(SimKeyframes, UnreadableFrameStopsThePipelineNamingTheFile) {
+  const auto dir = mapdelta::testing::FreshTempDir("mapdelta_client_bad_frame");
+  std::filesystem::copy(kSequence, dir / "seq", std::filesystem::copy_options::recursive);
+  const EurocSequence seq = ReadEurocSequence((dir / "seq").string());
+  const std::string broken = seq.StereoFrames()[3].right_path;
+  { std::FILE* f = std::fopen(broken.c_str(), "wb"); std::fputs("not a png", f); std::fclose(f); }
+  ClientConfig config;
+  config.keyframes.min_translation_m = 0.5;
+  for (const bool decode_ahead : {true, false}) {
+    ImageCheckingOdometry odometry(seq.groundtruth);
+    PipelineInputs in = TruthInputs((dir / "seq").string(), &odometry);
+    in.decode_ahead = decode_ahead;
+    try {
+      RunPipeline(config, in);
+      ADD_FAILURE() << "a corrupt frame must stop the run (decode_ahead " << decode_ahead << ")";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(broken), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace
