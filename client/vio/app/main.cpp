@@ -5,6 +5,7 @@
 #include <ctime>
 #include <cstring>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,7 @@ const char* kUsage =
     "  --keyframes-out FILE  TUM trajectory of keyframes (final window estimates)\n"
     "  --max-frames N        process only the first N stereo frames\n"
     "  --attitude-out FILE   per-frame roll/pitch/yaw/tilt errors against ground truth (deg)\n"
+    "  --state-out FILE      per-frame speed and IMU biases (t_s |v| bg_xyz ba_xyz keyframe)\n"
     "  --threads N           Ceres threads (default 1)\n"
     "  --pipelined           decode + track on a second thread, ahead of the estimator\n"
     "                        (same estimates, less wall time)\n"
@@ -38,7 +40,7 @@ const char* kUsage =
     "Rectified, undistorted stereo is required (as mapdelta-sim writes).\n";
 
 struct Options {
-  std::string sequence, out, keyframes_out, attitude_out;
+  std::string sequence, out, keyframes_out, attitude_out, state_out;
   int max_frames = 0, threads = 1;
   bool pipelined = false;
   std::string log_level = "info";
@@ -97,6 +99,7 @@ bool Parse(int argc, char** argv, Options* o, std::string* error) {
     else if (a == "--out") { if (!value(&o->out)) return false; }
     else if (a == "--keyframes-out") { if (!value(&o->keyframes_out)) return false; }
     else if (a == "--attitude-out") { if (!value(&o->attitude_out)) return false; }
+    else if (a == "--state-out") { if (!value(&o->state_out)) return false; }
     else if (a == "--log-level") { if (!value(&o->log_level)) return false; }
     else if (a == "--set") { if (!value(&v)) return false; o->sets.push_back(v); }
     else if (a == "--pipelined") o->pipelined = true;
@@ -155,7 +158,19 @@ int main(int argc, char** argv) {
     mapdelta::vio::SequenceRunOptions run;
     run.max_frames = o.max_frames;
     run.pipelined = o.pipelined;
-    run.on_frame = [](int i, int total, const mapdelta::vio::FrameEstimate& e) {
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> state(nullptr, &std::fclose);
+    if (!o.state_out.empty()) {
+      state.reset(std::fopen(o.state_out.c_str(), "w"));
+      if (!state) throw mapdelta::Error(mapdelta::ErrorCode::kIo, o.state_out + ": cannot write");
+      std::fprintf(state.get(), "# t_s speed_mps bg_x bg_y bg_z (rad/s) ba_x ba_y ba_z (m/s^2) keyframe\n");
+    }
+    const int64_t t0_ns = seq.StereoFrames().empty() ? 0 : seq.StereoFrames().front().t_ns;
+    run.on_frame = [&state, t0_ns](int i, int total, const mapdelta::vio::FrameEstimate& e) {
+      if (state && e.initialized) {
+        std::fprintf(state.get(), "%.4f %.4f %.6g %.6g %.6g %.6g %.6g %.6g %d\n", 1e-9 * static_cast<double>(e.t_ns - t0_ns),
+                     e.v_world.norm(), e.gyro_bias.x(), e.gyro_bias.y(), e.gyro_bias.z(), e.accel_bias.x(),
+                     e.accel_bias.y(), e.accel_bias.z(), e.keyframe ? 1 : 0);
+      }
       if ((i + 1) % 100 == 0 || i + 1 == total) {
         std::fprintf(stderr, "\rframe %d/%d  %s  landmarks %d  %.1f ms   ", i + 1, total,
                      e.initialized ? "tracking" : "initializing", e.landmarks, e.times.total_ms);
