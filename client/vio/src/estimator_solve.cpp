@@ -61,20 +61,11 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s, bool mo
   }
   FactorList factors;
   AllFactors(&factors);
-  Frame& newest = *window_.back();
-  // Motion-only also frees the previous frame's velocity and biases (restored after the
-  // solve): with them fixed the near-rigid IMU factor carries that keyframe's velocity error
-  // straight into the newest pose, which then disagrees with vision (~30 observations per
-  // frame flagged as outliers, and a divergence on paper S1_01 at 41 s).
-  Frame* previous = window_.size() > 1 ? window_[window_.size() - 2].get() : nullptr;
-  std::vector<double*> free_blocks{newest.pose, newest.sb};
-  if (previous != nullptr) free_blocks.push_back(previous->sb);
-  const auto is_free = [&](const double* b) {
-    return std::find(free_blocks.begin(), free_blocks.end(), b) != free_blocks.end();
-  };
+  const Frame& newest = *window_.back();
   for (auto& [cost, blocks] : factors) {
-    // Motion-only: just the factors touching a free block.
-    if (motion_only && std::none_of(blocks.begin(), blocks.end(), is_free)) {
+    // Motion-only: just the factors of the newest frame (its IMU factor and observations).
+    if (motion_only && std::find(blocks.begin(), blocks.end(), newest.pose) == blocks.end() &&
+        std::find(blocks.begin(), blocks.end(), newest.sb) == blocks.end()) {
       delete cost;
       continue;
     }
@@ -82,14 +73,12 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s, bool mo
     const bool visual = cost->num_residuals() == 2;
     problem.AddResidualBlock(cost, visual ? loss_.get() : nullptr, blocks);
   }
-  double previous_sb[9];
   if (motion_only) {
     std::vector<double*> blocks;
     problem.GetParameterBlocks(&blocks);
     for (double* b : blocks) {
-      if (!is_free(b)) problem.SetParameterBlockConstant(b);
+      if (b != newest.pose && b != newest.sb) problem.SetParameterBlockConstant(b);
     }
-    if (previous != nullptr) std::copy(previous->sb, previous->sb + 9, previous_sb);
   }
   for (auto& [id, lm] : landmarks_) {
     if (problem.HasParameterBlock(&lm.inv_depth)) {
@@ -105,7 +94,6 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s, bool mo
   solver.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
-  if (motion_only && previous != nullptr) std::copy(previous_sb, previous_sb + 9, previous->sb);
   MD_LOG(kDebug, "vio solve: " << summary.BriefReport() << " " << summary.total_time_in_seconds << " s");
 }
 
