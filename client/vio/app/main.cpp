@@ -34,7 +34,9 @@ const char* kUsage =
     "                        init_span (s), init_iterations, analytic (0/1),\n"
     "                        motion_only (0/1), max_features, klt_window, klt_levels,\n"
     "                        min_distance, pixel_sigma, huber, parallax, right_other (0/1),\n"
-    "                        covariance (0/1), min_zncc, outlier (sigmas), sigma_ba (m/s^2)\n"
+    "                        covariance (0/1), min_zncc, outlier (sigmas), sigma_ba (m/s^2),\n"
+    "                        gyro_floor, accel_floor (noise density floors), max_time (s),\n"
+    "                        gauge_free_prior (0/1)\n"
     "  --log-level L         debug|info|warn|error (default info)\n"
     "  --help                this text\n"
     "Rectified, undistorted stereo is required (as mapdelta-sim writes).\n";
@@ -76,6 +78,10 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   else if (key == "motion_only") c->motion_only_non_keyframes = v != 0;
   else if (key == "min_zncc") c->tracker.min_zncc = v;
   else if (key == "outlier") c->outlier_sigmas = v;
+  else if (key == "gyro_floor") c->min_gyro_noise_density = v;
+  else if (key == "accel_floor") c->min_accel_noise_density = v;
+  else if (key == "max_time") c->solver_max_time_s = v;
+  else if (key == "gauge_free_prior") c->gauge_free_prior = v != 0;
   else {
     *error = "--set: unknown key '" + key + "'";
     return false;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "mapdelta/common/log.hpp"
+#include "mapdelta/vio/gauge.hpp"
 
 namespace mapdelta::vio {
 namespace {
@@ -30,15 +31,12 @@ struct StatePrior {
     using V3 = Eigen::Matrix<T, 3, 1>;
     const Eigen::Map<const V3> p(pose);
     const Eigen::Map<const Eigen::Quaternion<T>> q(pose + 3);
-    const Eigen::Quaternion<T> dq = q0.cast<T>().conjugate() * q;
-    // Small-angle error rotated into the world frame; its z component is the yaw error.
-    const V3 dtheta_world = q0.cast<T>() * (T(2.0) * dq.vec());
     for (int k = 0; k < 3; ++k) {
       r[k] = (p[k] - T(p0[k])) / T(sigma_p);
       r[4 + k] = (sb[3 + k] - T(bg0[k])) / T(sigma_bg);
       r[7 + k] = (sb[6 + k] - T(ba0[k])) / T(sigma_ba);
     }
-    r[3] = dtheta_world.z() / T(sigma_yaw);
+    r[3] = WorldYawError(q0, Eigen::Quaternion<T>(q)) / T(sigma_yaw);
     return true;
   }
 };

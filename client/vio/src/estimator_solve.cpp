@@ -5,6 +5,7 @@
 
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/vio/estimator.hpp"
+#include "mapdelta/vio/gauge.hpp"
 
 namespace mapdelta::vio {
 
@@ -72,6 +73,11 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s, bool mo
     // Visual factors (all but IMU and prior) get the robust loss.
     const bool visual = cost->num_residuals() == 2;
     problem.AddResidualBlock(cost, visual ? loss_.get() : nullptr, blocks);
+  }
+  // The prior holds no gauge (MarginalizeOldest): the oldest frame keeps its position and yaw.
+  if (config_.gauge_free_prior && !motion_only) {
+    problem.AddResidualBlock(CreateGaugeAnchor(window_.front()->pose, 1e-3), nullptr,
+                             window_.front()->pose);
   }
   if (motion_only) {
     std::vector<double*> blocks;
@@ -150,7 +156,12 @@ void SlidingWindowEstimator::MarginalizeOldest() {
   }
   marg->Drop(oldest.pose);
   marg->Drop(oldest.sb);
-  if (marg->Marginalize()) prior_ = marg;
+  if (marg->Marginalize()) {
+    if (config_.gauge_free_prior) {
+      marg->RemoveDirections(GaugeDirections(marg->kept_sizes(), marg->linearization_points()));
+    }
+    prior_ = marg;
+  }
   finalized_.push_back({oldest.t_ns, StateOf(oldest), oldest.relative_covariance});
   RemoveFrameObservations(oldest.t_ns);
   window_.pop_front();

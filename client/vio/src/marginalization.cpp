@@ -1,6 +1,7 @@
 #include "mapdelta/vio/marginalization.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <map>
 
 #include "mapdelta/vio/factors.hpp"
@@ -135,7 +136,23 @@ bool Marginalizer::Marginalize() {
     b_ = g.tail(k);
   }
 
-  // 4. Factor H* = J^T J with J = S^1/2 V^T, and r = S^-1/2 V^T b*.
+  Factor();
+  blocks_.clear();
+  return true;
+}
+
+void Marginalizer::RemoveDirections(const Eigen::MatrixXd& directions) {
+  const Eigen::MatrixXd HN = H_ * directions;
+  const Eigen::MatrixXd NHN = directions.transpose() * HN;
+  // Directions the prior already knows nothing about stay out of the inverse.
+  const Eigen::MatrixXd NHN_inv = PseudoInverse(NHN, 1e-12 * std::max(1.0, NHN.trace()));
+  b_ -= HN * (NHN_inv * (directions.transpose() * b_));
+  H_ -= HN * NHN_inv * HN.transpose();
+  Factor();
+}
+
+void Marginalizer::Factor() {
+  // Factor H* = J^T J with J = S^1/2 V^T, and r = S^-1/2 V^T b*.
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (H_ + H_.transpose()));
   const Eigen::ArrayXd s = es.eigenvalues().array();
   const Eigen::ArrayXd keep = (s > 1e-8).cast<double>();
@@ -143,8 +160,6 @@ bool Marginalizer::Marginalize() {
   const Eigen::VectorXd s_inv_sqrt = (keep > 0).select(s.max(1e-300).sqrt().inverse(), 0.0);
   J_ = s_sqrt.asDiagonal() * es.eigenvectors().transpose();
   r_ = s_inv_sqrt.asDiagonal() * es.eigenvectors().transpose() * b_;
-  blocks_.clear();
-  return true;
 }
 
 MarginalizationFactor::MarginalizationFactor(std::shared_ptr<const Marginalizer> info)

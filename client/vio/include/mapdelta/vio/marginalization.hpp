@@ -22,6 +22,12 @@ class Marginalizer {
   void Drop(const double* block) { dropped_.insert(block); }
   // Builds the prior. Returns false if nothing is kept.
   bool Marginalize();
+  // Removes what the prior says along the columns of `directions` (tangent directions of the
+  // kept blocks at the linearization points, in the order of kept_blocks()): the Schur
+  // complement with those directions as unknowns, H' = H - H N (N^T H N)^+ N^T H, and the
+  // same for b. The prior then neither holds nor pulls the estimate along them. Call after
+  // Marginalize().
+  void RemoveDirections(const Eigen::MatrixXd& directions);
 
   // The result, valid after Marginalize().
   const std::vector<double*>& kept_blocks() const { return kept_; }
@@ -39,6 +45,8 @@ class Marginalizer {
     const ceres::LossFunction* loss = nullptr;
     std::vector<double*> params;
   };
+  void Factor();  // H_, b_ -> J_, r_
+
   std::vector<Block> blocks_;
   std::set<const double*> dropped_;
   std::vector<double*> kept_;

@@ -63,6 +63,9 @@ struct VioConfig {
   // of yaw error kept for good); 0.1 still drifted (0.7 deg at 8 s); 0.05 held the tilt at
   // 0.1 deg. Real MEMS turn-on biases can be larger: lower it only with calibrated IMUs.
   double init_accel_bias_sigma = 0.05;
+  // Keep position and yaw (the unobservable gauge) out of the marginalization prior and hold
+  // them with an anchor on the window's oldest frame (gauge.hpp says why).
+  bool gauge_free_prior = true;
   int solver_iterations = 6;
   // Speed (bench/bench_vio): closed-form reprojection Jacobians instead of autodiff, and
   // for non-keyframes a motion-only solve of the newest state instead of the whole window.
