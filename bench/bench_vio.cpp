@@ -113,13 +113,16 @@ int main(int argc, char** argv) {
                 seconds, 1e3 / rate);
     std::vector<Row> rows;
     rows.push_back(Run("current", seq, mapdelta::vio::VioConfig{}, seconds));
-    mapdelta::vio::VioConfig motion_only;
-    motion_only.motion_only_non_keyframes = true;
-    rows.push_back(Run("motiononly", seq, motion_only, seconds));
+    // Session 4's configuration: 200 features, a full window solve on every frame, the gauge
+    // in the marginalization prior.
+    mapdelta::vio::VioConfig session4;
+    session4.tracker.max_features = 200;
+    session4.motion_only_non_keyframes = false;
+    session4.gauge_free_prior = false;
+    rows.push_back(Run("session4", seq, session4, seconds));
     if (baseline) {
-      mapdelta::vio::VioConfig old;
+      mapdelta::vio::VioConfig old = session4;
       old.analytic_reprojection = false;
-      old.motion_only_non_keyframes = false;
       rows.push_back(Run("session1", seq, old, seconds));
     }
     std::printf("%-10s %6s %8s %8s %9s %9s %9s %8s %8s %8s %8s %7s %6s\n", "config", "frames",

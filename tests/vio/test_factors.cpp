@@ -1,11 +1,14 @@
 // Every Ceres factor's Jacobian against central differences in the tangent space
-// (pose: p + dp, q * Exp(dtheta)), and marginalization against a full solve.
+// (pose: p + dp, q * Exp(dtheta)), marginalization against a full solve, and the gauge
+// (position and yaw) that the window keeps out of its prior.
 #include <gtest/gtest.h>
 
 #include <memory>
+#include <Eigen/Eigenvalues>
 #include <random>
 
 #include "mapdelta/vio/factors.hpp"
+#include "mapdelta/vio/gauge.hpp"
 #include "mapdelta/vio/marginalization.hpp"
 
 using namespace mapdelta;
@@ -351,4 +354,134 @@ TEST(Marginalization, EliminatesScalarBlocksExactly) {
   EXPECT_NEAR(p[2], ps[2], 1e-6);
   EXPECT_NEAR(p[3], ps[3], 1e-6);
   for (auto* c : costs) delete c;
+}
+
+namespace {
+
+// Tangent Jacobian of a cost function at `blocks`, all blocks side by side.
+Eigen::MatrixXd TangentJacobian(const ceres::CostFunction& cost, const Blocks& blocks) {
+  const int nr = cost.num_residuals();
+  const auto& sizes = cost.parameter_block_sizes();
+  std::vector<const double*> ptrs;
+  std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(blocks.size());
+  std::vector<double*> jptrs;
+  int cols = 0;
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    ptrs.push_back(blocks[k].data());
+    J[k].resize(nr, sizes[k]);
+    jptrs.push_back(J[k].data());
+    cols += TangentSizeOf(sizes[k]);
+  }
+  Eigen::VectorXd r(nr);
+  EXPECT_TRUE(cost.Evaluate(ptrs.data(), r.data(), jptrs.data()));
+  Eigen::MatrixXd out(nr, cols);
+  int o = 0;
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    const Eigen::MatrixXd Jt = ToTangentJacobian(blocks[k].data(), sizes[k], J[k]);
+    out.middleCols(o, Jt.cols()) = Jt;
+    o += static_cast<int>(Jt.cols());
+  }
+  return out;
+}
+
+Eigen::MatrixXd DirectionsOf(const Blocks& blocks) {
+  std::vector<int> sizes;
+  std::vector<Eigen::VectorXd> x0;
+  for (const auto& b : blocks) {
+    sizes.push_back(static_cast<int>(b.size()));
+    x0.push_back(Eigen::Map<const Eigen::VectorXd>(b.data(), static_cast<Eigen::Index>(b.size())));
+  }
+  return GaugeDirections(sizes, x0);
+}
+
+// Moves every block along the gauge direction `c` (translation x/y/z, yaw) in tangent steps.
+Blocks MoveAlong(const Blocks& blocks, const Eigen::Vector4d& c) {
+  const Eigen::VectorXd step = DirectionsOf(blocks) * c;
+  Blocks out = blocks;
+  int o = 0;
+  for (auto& b : out) {
+    const int t = TangentSizeOf(static_cast<int>(b.size()));
+    if (b.size() == 7) {
+      std::vector<double> moved(7);
+      PoseManifold().Plus(b.data(), step.data() + o, moved.data());
+      b = moved;
+    } else {
+      for (int d = 0; d < t; ++d) b[static_cast<size_t>(d)] += step[o + d];
+    }
+    o += t;
+  }
+  return out;
+}
+
+}  // namespace
+
+// The four gauge directions are null directions of the IMU and visual factors (what makes
+// them unobservable): J * N = 0 at random states, far from any special configuration.
+TEST(Gauge, DirectionsAreNullDirectionsOfImuAndReprojectionFactors) {
+  std::mt19937 rng(11);
+  std::unique_ptr<ceres::CostFunction> imu(ImuFactor::Create(SomePreintegration(), Eigen::Vector3d(0, 0, -9.81)));
+  const auto cam0 = Cam({-1.2, 0.0, -1.2}, {0.1, 0.5, 0.05});
+  std::unique_ptr<ceres::CostFunction> reproj(ReprojectionFactor::Create(
+      Eigen::Vector2d(0.1, -0.2), Eigen::Vector2d(0.05, 0.1), cam0, cam0, 400.0));
+  for (int trial = 0; trial < 3; ++trial) {
+    const Blocks states = {RandomPose(rng, 5.0), RandomVector(rng, 9, 2.0), RandomPose(rng, 5.0),
+                           RandomVector(rng, 9, 2.0)};
+    const Eigen::MatrixXd Ji = TangentJacobian(*imu, states);
+    EXPECT_LT((Ji * DirectionsOf(states)).cwiseAbs().maxCoeff(), 1e-7 * Ji.cwiseAbs().maxCoeff());
+    const Blocks visual = {RandomPose(rng, 5.0), RandomPose(rng, 5.0), {0.2}};
+    const Eigen::MatrixXd Jv = TangentJacobian(*reproj, visual);
+    EXPECT_LT((Jv * DirectionsOf(visual)).cwiseAbs().maxCoeff(), 1e-7 * Jv.cwiseAbs().maxCoeff());
+    // The yaw column really turns the states: not the zero vector.
+    EXPECT_GT(DirectionsOf(states).col(3).norm(), 0.5);
+  }
+}
+
+// A prior that knew the gauge (an anchor on the dropped frame's position and yaw) knows
+// nothing of it after RemoveDirections: H N = 0, b N = 0, its residual no longer changes
+// along N, and what it says about the rest is the Schur complement with N unknown.
+TEST(Gauge, RemovedDirectionsCarryNoInformation) {
+  std::mt19937 rng(12);
+  Blocks x = {RandomPose(rng, 2.0), RandomVector(rng, 9, 0.5), RandomPose(rng, 2.0),
+              RandomVector(rng, 9, 0.5)};
+  auto marg = std::make_shared<Marginalizer>();
+  marg->AddResidualBlock(ImuFactor::Create(SomePreintegration(), Eigen::Vector3d(0, 0, -9.81)),
+                         nullptr, {x[0].data(), x[1].data(), x[2].data(), x[3].data()});
+  marg->AddResidualBlock(CreateGaugeAnchor(x[0].data(), 1e-2), nullptr, {x[0].data()});
+  marg->Drop(x[0].data());
+  marg->Drop(x[1].data());
+  ASSERT_TRUE(marg->Marginalize());
+  Blocks kept;
+  for (size_t k = 0; k < marg->kept_blocks().size(); ++k) {
+    kept.emplace_back(marg->kept_blocks()[k], marg->kept_blocks()[k] + marg->kept_sizes()[k]);
+  }
+  const Eigen::MatrixXd N = DirectionsOf(kept);
+  const Blocks moved = MoveAlong(kept, Eigen::Vector4d(0.3, -0.2, 0.1, 0.01));
+  auto residual_change = [&](const std::shared_ptr<Marginalizer>& m) {
+    MarginalizationFactor prior(m);
+    auto residual = [&](const Blocks& at) {
+      std::vector<const double*> ptrs;
+      for (const auto& b : at) ptrs.push_back(b.data());
+      Eigen::VectorXd r(prior.num_residuals());
+      EXPECT_TRUE(prior.Evaluate(ptrs.data(), r.data(), nullptr));
+      return r;
+    };
+    return (residual(moved) - residual(kept)).norm();
+  };
+  const double scale = marg->H().cwiseAbs().maxCoeff();
+  ASSERT_GT((marg->H() * N).cwiseAbs().maxCoeff(), 1e-3 * scale);  // the anchor's information
+  const double change_before = residual_change(marg);
+  // Oracle: in coordinates [N | M] (M: an orthonormal complement of N), treating the N part
+  // as unknown is the Schur complement onto M.
+  const Eigen::MatrixXd Q = Eigen::HouseholderQR<Eigen::MatrixXd>(N).householderQ();
+  const Eigen::MatrixXd M = Q.rightCols(N.rows() - 4);
+  const Eigen::MatrixXd Hnn = N.transpose() * marg->H() * N, Hmn = M.transpose() * marg->H() * N;
+  const Eigen::MatrixXd schur =
+      M.transpose() * marg->H() * M - Hmn * Hnn.ldlt().solve(Hmn.transpose());
+  ASSERT_GT(change_before, 1.0);
+
+  marg->RemoveDirections(N);
+  EXPECT_LT((marg->H() * N).cwiseAbs().maxCoeff(), 1e-9 * scale);
+  EXPECT_LT((marg->b().transpose() * N).cwiseAbs().maxCoeff(), 1e-9 * scale);
+  EXPECT_LT((M.transpose() * marg->H() * M - schur).cwiseAbs().maxCoeff(), 1e-9 * scale);
+  EXPECT_LT(residual_change(marg), 1e-4 * change_before);
 }

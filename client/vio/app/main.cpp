@@ -35,8 +35,9 @@ const char* kUsage =
     "                        motion_only (0/1), max_features, klt_window, klt_levels,\n"
     "                        min_distance, pixel_sigma, huber, parallax, right_other (0/1),\n"
     "                        covariance (0/1), min_zncc, outlier (sigmas), sigma_ba (m/s^2),\n"
-    "                        gyro_floor, accel_floor (noise density floors), max_time (s),\n"
-    "                        gauge_free_prior (0/1)\n"
+    "                        gyro_floor, accel_floor, gyro_walk_floor, accel_walk_floor\n"
+    "                        (IMU noise floors), max_time (s),\n"
+    "                        gauge_free_prior (0/1), anchor_sigma (m, rad)\n"
     "  --log-level L         debug|info|warn|error (default info)\n"
     "  --help                this text\n"
     "Rectified, undistorted stereo is required (as mapdelta-sim writes).\n";
@@ -80,8 +81,11 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   else if (key == "outlier") c->outlier_sigmas = v;
   else if (key == "gyro_floor") c->min_gyro_noise_density = v;
   else if (key == "accel_floor") c->min_accel_noise_density = v;
+  else if (key == "gyro_walk_floor") c->min_gyro_random_walk = v;
+  else if (key == "accel_walk_floor") c->min_accel_random_walk = v;
   else if (key == "max_time") c->solver_max_time_s = v;
   else if (key == "gauge_free_prior") c->gauge_free_prior = v != 0;
+  else if (key == "anchor_sigma") c->gauge_anchor_sigma = v;
   else {
     *error = "--set: unknown key '" + key + "'";
     return false;

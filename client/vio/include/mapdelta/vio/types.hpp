@@ -66,16 +66,16 @@ struct VioConfig {
   // Keep position and yaw (the unobservable gauge) out of the marginalization prior and hold
   // them with an anchor on the window's oldest frame (gauge.hpp says why).
   bool gauge_free_prior = true;
+  double gauge_anchor_sigma = 1e-3;  // m and rad
   int solver_iterations = 6;
   // Speed (bench/bench_vio): closed-form reprojection Jacobians instead of autodiff, and
-  // for non-keyframes a motion-only solve of the newest state instead of the whole window.
-  // Motion-only used to diverge (paper noiseless S1_01 at 41 s, tiny big S2_01): depths
-  // triangulated from the predicted pose were then held fixed; it now triangulates only on
-  // keyframes. It saves ~20 % of the VIO's CPU (paper S1_01: 194 -> 154 s with 20 keyframe
-  // iterations, ATE 0.460 -> 0.462 m) but costs 2-4 % ATE on tiny big noise, and the client
-  // runs in real time without it (client/README.md): off.
+  // for non-keyframes a motion-only solve of the newest state instead of the whole window
+  // (depths are triangulated on keyframes only: triangulating from the predicted pose and
+  // then holding the depth fixed had made it diverge). On: it pays for the 300 features
+  // (noiseless paper S2_02: 200 features with full solves 162 s CPU, ATE 0.620 m; 300 with
+  // full solves 208 s, 0.142 m; 300 motion-only 149 s, 0.217 m).
   bool analytic_reprojection = true;
-  bool motion_only_non_keyframes = false;
+  bool motion_only_non_keyframes = true;
   int init_solver_iterations = 30;  // first solve after initialization (converged)
   double init_solver_max_time_s = 1.5;  // a one-off stall at (re)initialization
   double solver_max_time_s = 0.08;
