@@ -61,9 +61,12 @@ TEST(VioSim, TinyNoiselessSequenceIsAccurate) {
 }
 
 // The front end on its own thread (TrackFrame ahead of AddTrackedFrame) must give the same
-// estimates as the serial loop. Not bit for bit: two runs in one process already differ in
-// the last digits (Ceres orders its elimination by parameter-block addresses), and the
-// window solve carries that on. A pipelining fault (a frame paired with another frame's
+// estimates as the serial loop. Not bit for bit: two runs already differ in the last digits
+// (Ceres orders its elimination by parameter-block addresses), and the window solve carries
+// that on, through outlier and keyframe decisions that a last digit can flip. With 300
+// features that grows to millimetres over these 100 frames (serial vs serial in two processes
+// 0.03 mm, serial vs pipelined 3.6 mm in two processes, 6.3 mm and 0.03 deg in one; with 200
+// features it stayed below 0.1 mm). A pipelining fault (a frame paired with another frame's
 // IMU or features) shows up as decimetres at once.
 TEST(VioSim, PipelinedFrontEndGivesTheSameEstimates) {
   const EurocSequence seq = ReadEurocSequence(Generate("pipelined", Short(sim::NoiseLevel::kSmall)));
@@ -87,8 +90,8 @@ TEST(VioSim, PipelinedFrontEndGivesTheSameEstimates) {
     max_dp = std::max(max_dp, (a.frames[i].T.translation() - b.frames[i].T.translation()).norm());
     max_dr = std::max(max_dr, RotationAngle(a.frames[i].T, b.frames[i].T));
   }
-  EXPECT_LT(max_dp, 1e-4) << "metres";
-  EXPECT_LT(max_dr, 1e-3 * M_PI / 180.0) << "radians";
+  EXPECT_LT(max_dp, 0.03) << "metres";
+  EXPECT_LT(max_dr, 0.2 * M_PI / 180.0) << "radians";
 }
 
 TEST(VioSim, TinySmallNoiseSequenceStaysBounded) {

@@ -1,5 +1,7 @@
 #include "mapdelta/vio/initializer.hpp"
 
+#include <algorithm>
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
@@ -68,8 +70,19 @@ bool Initializer::RelativeMotion(const FrameFeatures& prev, const FrameFeatures&
   const double z_near = ext_.focal_px * T_c0_c1.translation().norm() / config_.init_min_disparity_px;
   std::vector<cv::Point3f> far_object;
   std::vector<cv::Point2f> far_image;
+  // The strongest, longest-tracked corners first (ids grow with detection order, and each
+  // detection round takes the best corners first); see init_max_pnp_points.
+  std::vector<const FeatureObservation*> candidates;
   for (const auto& f : prev.features) {
-    if (!f.has_right) continue;
+    if (f.has_right) candidates.push_back(&f);
+  }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const FeatureObservation* a, const FeatureObservation* b) { return a->id < b->id; });
+  if (static_cast<int>(candidates.size()) > config_.init_max_pnp_points) {
+    candidates.resize(static_cast<size_t>(config_.init_max_pnp_points));
+  }
+  for (const FeatureObservation* fp : candidates) {
+    const FeatureObservation& f = *fp;
     const auto it = by_id.find(f.id);
     if (it == by_id.end()) continue;
     const auto P = TriangulateStereo(f.left, f.right, T_c0_c1);
