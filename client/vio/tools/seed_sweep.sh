@@ -5,9 +5,12 @@
 # delete the data, and print a table of ATE mean/max per noise and sequence.
 #
 #   client/vio/tools/seed_sweep.sh [--seeds "1 2 3"] [--noises "small big"] [--work DIR]
-#                                  [--build DIR] [--keep]
+#                                  [--build DIR] [--keep] [--clean DIR --sequences "S2_02"]
+# --clean DIR: instead of a tiny city per seed, noise seeds of one clean (--noise none) render,
+# e.g. the paper preset's ~700 m sequences (`mapdelta-sim renoise`, ~90 s per sequence).
 # Output: DIR/runs.tsv (one row per run) and the summary on stdout. Runs niced, one at a time
-# (~50 s CPU to generate a seed, ~20 s per VIO run); SWEEP_NICE=N sets the niceness (default 10).
+# (~50 s CPU to generate a seed, ~20 s per VIO run); SWEEP_NICE=N sets the niceness (default 10),
+# SWEEP_VIO_ARGS adds mapdelta-vio options (e.g. "--pipelined --set max_time=1").
 set -euo pipefail
 
 seeds="1 2 3 4 5 6 7 8 9 10"
@@ -15,6 +18,8 @@ noises="small big"
 work=/work/data/vio-sweep
 build=build
 keep=0
+clean=""
+sequences="S1_01 S2_01"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --seeds) seeds="$2"; shift 2 ;;
@@ -22,7 +27,9 @@ while [[ $# -gt 0 ]]; do
     --work) work="$2"; shift 2 ;;
     --build) build="$2"; shift 2 ;;
     --keep) keep=1; shift ;;
-    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
+    --clean) clean="$2"; shift 2 ;;
+    --sequences) sequences="$2"; shift 2 ;;
+    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
     *) echo "seed_sweep.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -43,14 +50,21 @@ gt_jumps() {
 
 for noise in $noises; do
   for seed in $seeds; do
-    data="$work/tiny-$noise-s$seed"
-    echo "== seed $seed, noise $noise: generating" >&2
+    data="$work/data-$noise-s$seed"
     rm -rf "$data"
-    nice -n ${SWEEP_NICE:-10} "$sim" --preset tiny --out "$data" --seed "$seed" --noise "$noise" \
-      --write_depth false --quiet > "$data.log" 2>&1
-    for seq in S1_01 S2_01; do
+    if [[ -n "$clean" ]]; then
+      echo "== seed $seed, noise $noise: renoising $clean" >&2
+      nice -n ${SWEEP_NICE:-10} "$sim" renoise --from "$clean" --out "$data" --noise "$noise" \
+        --seed "$seed" --sequences "${sequences// /,}" --quiet > "$data.log" 2>&1
+    else
+      echo "== seed $seed, noise $noise: generating" >&2
+      nice -n ${SWEEP_NICE:-10} "$sim" --preset tiny --out "$data" --seed "$seed" --noise "$noise" \
+        --write_depth false --quiet > "$data.log" 2>&1
+    fi
+    for seq in $sequences; do
       dir="$data/sequences/$seq"
-      out=$(nice -n ${SWEEP_NICE:-10} "$vio" --sequence "$dir" --out "$work/$seq-$noise-s$seed.tum" 2>/dev/null)
+      out=$(nice -n ${SWEEP_NICE:-10} "$vio" --sequence "$dir" --out "$work/$seq-$noise-s$seed.tum" \
+        ${SWEEP_VIO_ARGS:-} 2>/dev/null)
       ate=$(sed -n 's/^ATE (SE3-aligned.*rmse \([0-9.]*\) m .*max \([0-9.]*\)$/\1\t\2/p' <<< "$out")
       worst=$(sed -n 's/^segment .*rmse \([0-9.]*\) m.*/\1/p' <<< "$out" | sort -g | tail -1)
       resets=$(sed -n 's/.*resets \([0-9]*\)$/\1/p' <<< "$out")
