@@ -3,8 +3,8 @@
 // (position and yaw) that the window keeps out of its prior.
 #include <gtest/gtest.h>
 
-#include <memory>
 #include <Eigen/Eigenvalues>
+#include <memory>
 #include <random>
 
 #include "mapdelta/vio/factors.hpp"
@@ -363,7 +363,8 @@ Eigen::MatrixXd TangentJacobian(const ceres::CostFunction& cost, const Blocks& b
   const int nr = cost.num_residuals();
   const auto& sizes = cost.parameter_block_sizes();
   std::vector<const double*> ptrs;
-  std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(blocks.size());
+  std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(
+      blocks.size());
   std::vector<double*> jptrs;
   int cols = 0;
   for (size_t k = 0; k < blocks.size(); ++k) {
@@ -419,7 +420,8 @@ Blocks MoveAlong(const Blocks& blocks, const Eigen::Vector4d& c) {
 // them unobservable): J * N = 0 at random states, far from any special configuration.
 TEST(Gauge, DirectionsAreNullDirectionsOfImuAndReprojectionFactors) {
   std::mt19937 rng(11);
-  std::unique_ptr<ceres::CostFunction> imu(ImuFactor::Create(SomePreintegration(), Eigen::Vector3d(0, 0, -9.81)));
+  std::unique_ptr<ceres::CostFunction> imu(
+      ImuFactor::Create(SomePreintegration(), Eigen::Vector3d(0, 0, -9.81)));
   const auto cam0 = Cam({-1.2, 0.0, -1.2}, {0.1, 0.5, 0.05});
   std::unique_ptr<ceres::CostFunction> reproj(ReprojectionFactor::Create(
       Eigen::Vector2d(0.1, -0.2), Eigen::Vector2d(0.05, 0.1), cam0, cam0, 400.0));

@@ -76,8 +76,8 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s, bool mo
   }
   // The prior holds no gauge (MarginalizeOldest): the oldest frame keeps its position and yaw.
   if (config_.gauge_free_prior && !motion_only) {
-    problem.AddResidualBlock(CreateGaugeAnchor(window_.front()->pose, config_.gauge_anchor_sigma), nullptr,
-                             window_.front()->pose);
+    problem.AddResidualBlock(CreateGaugeAnchor(window_.front()->pose, config_.gauge_anchor_sigma),
+                             nullptr, window_.front()->pose);
   }
   if (motion_only) {
     std::vector<double*> blocks;

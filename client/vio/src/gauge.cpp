@@ -12,8 +12,9 @@ struct GaugeAnchor {
   template <typename T>
   bool operator()(const T* pose, T* r) const {
     for (int k = 0; k < 3; ++k) r[k] = (pose[k] - T(p0[k])) / T(sigma);
-    r[3] = WorldYawError(q0, Eigen::Quaternion<T>(Eigen::Map<const Eigen::Quaternion<T>>(pose + 3))) /
-           T(sigma);
+    r[3] =
+        WorldYawError(q0, Eigen::Quaternion<T>(Eigen::Map<const Eigen::Quaternion<T>>(pose + 3))) /
+        T(sigma);
     return true;
   }
 };
