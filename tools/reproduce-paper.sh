@@ -15,6 +15,8 @@ usage: bash tools/reproduce-paper.sh --out DIR [options]
                       paper, S1_01,S2_01 for tiny)
   --noise LIST        small,big (default)
   --trials N          noise seeds 1..N per sequence and noise (default 5; 0 = crowd only)
+  --sweep-trials N    the th_f x bound sweep on trials 1..N only; later trials get the operating
+                      point (default: every trial; 1 saves ~11 detector runs per later trial)
   --seed N            city seed of the clean render (default 1)
   --thf LIST          th_f sweep in metres (default 5,10,15,20,25,30)
   --bounds LIST       free-ray bounds in px for the sweep (default 128,0: 128 = the server's
@@ -44,7 +46,7 @@ EOF2
 root=$(cd "$(dirname "$0")/.." && pwd)
 out="" preset=paper sequences="" noises=small,big trials=5 city_seed=1 thf_list=5,10,15,20,25,30
 bounds=128,0 thf_point=20 crowd=1,2,4,8 crowd_preset=tiny crowd_seq=S1_01 crowd_noise=small
-data="" build_dir=build sim_override="" keep_data=0 nice_cmd="nice -n 10" report_only=0
+sweep_trials="" data="" build_dir=build sim_override="" keep_data=0 nice_cmd="nice -n 10" report_only=0
 declare -A dataset_override=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -53,6 +55,7 @@ while [ $# -gt 0 ]; do
     --sequences) sequences=$2; shift 2 ;;
     --noise) noises=$2; shift 2 ;;
     --trials) trials=$2; shift 2 ;;
+    --sweep-trials) sweep_trials=$2; shift 2 ;;
     --seed) city_seed=$2; shift 2 ;;
     --thf) thf_list=$2; shift 2 ;;
     --bounds) bounds=$2; shift 2 ;;
@@ -76,6 +79,8 @@ while [ $# -gt 0 ]; do
 done
 [ -n "$out" ] || { echo "reproduce-paper: --out is required (see --help)" >&2; exit 2; }
 [[ "$trials" =~ ^[0-9]+$ ]] || { echo "reproduce-paper: --trials '$trials': expected an integer >= 0" >&2; exit 2; }
+[ -n "$sweep_trials" ] || sweep_trials=$trials
+[[ "$sweep_trials" =~ ^[0-9]+$ ]] || { echo "reproduce-paper: --sweep-trials '$sweep_trials': expected an integer >= 0" >&2; exit 2; }
 [[ "$city_seed" =~ ^[0-9]+$ ]] || { echo "reproduce-paper: --seed '$city_seed': expected an integer" >&2; exit 2; }
 for v in ${thf_list//,/ } $thf_point; do
   [[ "$v" =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "reproduce-paper: th_f '$v' is not a number" >&2; exit 2; }
@@ -117,12 +122,14 @@ vio_point="th_f $thf_point m, free-ray bound $operating_bound px"
 . "$root/tools/repro/crowd.sh"
 
 jq -n --arg preset "$preset" --arg sequences "$sequences" --arg noises "$noises" --argjson trials "$trials" \
+  --argjson sweep_trials "$sweep_trials" \
   --argjson seed "$city_seed" --arg thf "$thf_list" --arg bounds "$bounds" --argjson thf_point "$thf_point" \
   --arg crowd "$crowd" --arg crowd_preset "$crowd_preset" --arg crowd_seq "$crowd_seq" --arg crowd_noise "$crowd_noise" \
   --arg commit "$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)" \
   --arg started "$(date -u +%Y-%m-%dT%H:%M:%SZ)" --arg cpu "$(lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -1)" \
   --argjson nproc "$(nproc)" --arg load "$(cut -d' ' -f1-3 /proc/loadavg)" \
   '{preset: $preset, sequences: ($sequences | split(",")), noises: ($noises | split(",")), trials: $trials,
+    sweep_trials: $sweep_trials,
     city_seed: $seed, th_f_m: ($thf | split(",") | map(tonumber)), free_ray_bounds_px: ($bounds | split(",") | map(tonumber)),
     th_f_point_m: $thf_point, crowd: {uploads: $crowd, preset: $crowd_preset, sequence: $crowd_seq, noise: $crowd_noise},
     commit: $commit, started: $started, machine: {cpu: $cpu, nproc: $nproc, loadavg_at_start: $load}}' >"$out/params.json.new"
@@ -147,8 +154,12 @@ if [ "$report_only" = 0 ]; then
         evaluate_ate "$ds" "$seq" "$run"
         evaluate_pre_reset "$ds" "$seq" "$run"
         say "  ATE VIO $(jq -r '.rmse' "$run/ate_vio.json") m, fused $(jq -r '.rmse' "$run/ate_fused.json") m; change detection sweep"
-        for b in "${bound_arr[@]}"; do
-          for t in "${thf_arr[@]}"; do
+        full_sweep=true sweep_bounds=("${bound_arr[@]}") sweep_thf=("${thf_arr[@]}")
+        if [ "$k" -gt "$sweep_trials" ]; then
+          full_sweep=false sweep_bounds=("$operating_bound") sweep_thf=("$thf_point")
+        fi
+        for b in "${sweep_bounds[@]}"; do
+          for t in "${sweep_thf[@]}"; do
             detect_and_eval "$ds" "$seq" "$run/client/keyframes" "$run/detect/b$b-thf$t" "$t" "$b"
             say "  th_f $t m, bound $b px: $(jq -c '.paper | {R_new, P_new, R_rm, P_rm} | map_values(. * 1000 | round / 1000)' "$run/detect/b$b-thf$t/changes.json")"
           done
@@ -158,7 +169,7 @@ if [ "$report_only" = 0 ]; then
         detect_and_eval "$ds" "$seq" "$run/keyframes-vio" "$run/detect-vio" "$thf_point" "$operating_bound"
         rm -rf "$run/keyframes-vio"
         say "  VIO-only poses: $(jq -c '.paper | {R_new, P_new, R_rm, P_rm} | map_values(. * 1000 | round / 1000)' "$run/detect-vio/changes.json")"
-        run_json "$run" "$seq" "$noise" "$k" >"$run/run.json"
+        run_json "$run" "$seq" "$noise" "$k" "$full_sweep" >"$run/run.json"
         prune_dataset "$ds" "$seq"
       done
     done

@@ -124,7 +124,8 @@ detect_and_eval() {
   [ "$keep_data" = 1 ] || rm -f "$dir/global.pcd" "$dir/observed.bt"
 }
 
-# run_json RUN_DIR SEQ NOISE TRIAL -> one run's JSON record.
+# run_json RUN_DIR SEQ NOISE TRIAL FULL_SWEEP(true|false) -> one run's JSON record (with the
+# commit that made it: a reproduction resumed in another session may mix commits).
 run_json() {
   local run=$1 seq=$2 noise=$3 k=$4
   local sweep="[]" d
@@ -141,8 +142,9 @@ run_json() {
   jq -n --arg seq "$seq" --arg noise "$noise" --argjson k "$k" --slurpfile resets "$run/resets.json" \
     --slurpfile av "$run/ate_vio.json" --slurpfile af "$run/ate_fused.json" \
     --argjson timing "$(timing_json "$run/client")" --argjson sweep "$sweep" --argjson vio "$vio" \
-    --arg vio_params "$vio_point" \
-    '{sequence: $seq, noise: $noise, trial: $k,
+    --arg vio_params "$vio_point" --argjson full_sweep "$5" \
+    --arg commit "$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)" \
+    '{sequence: $seq, noise: $noise, trial: $k, commit: $commit, full_sweep: $full_sweep,
       ate_vio: ($av[0] | {rmse, std, max, mean, pairs}), ate_fused: ($af[0] | {rmse, std, max, mean, pairs}),
       client_timing: $timing, sweep: $sweep, vio_pose_changes: $vio, vio_pose_params: $vio_params} + $resets[0]'
 }

@@ -17,6 +17,11 @@ J() { jq -r "$@" "$res"; }
   echo "# mapdelta: the paper's experiments on the simulator"
   echo
   J '"Preset `\(.preset)`, sequences \(.sequences | join(", ")), noise \(.noises | join(", ")), \(.trials) trial(s) (noise seeds 1..\(.trials)), city seed \(.city_seed). Commit `\(.commit)`, started \(.started), finished \(.finished); machine: \(.machine.nproc) × \(.machine.cpu), load average \(.machine.loadavg_at_start) at start, \(.loadavg_at_end) at the end."'
+  # A run resumed over several sessions may hold runs made by different commits: say which.
+  J '[.runs[] | .commit // "unrecorded"] | group_by(.) | if length > 1 then
+       "\nRuns by commit: " + (map("`\(.[0])` (\(length))") | join(", ")) + "." else empty end'
+  J 'if (.sweep_trials // .trials) < .trials then
+       "\nThe th_f sweep (Fig. 4 analogue, per-sequence table) covers trials 1..\(.sweep_trials); every trial has the operating point (Table III, Fig. 6)." else empty end'
   echo
   echo "## Table III analogue: ATE (m, SE(3)-aligned, keyframe poses), mean over trials"
   echo
@@ -57,7 +62,8 @@ J() { jq -r "$@" "$res"; }
     echo
     echo "| th_f (m) | R_new | P_new | R_rm | P_rm | detect time (s) |"
     echo "|---|---|---|---|---|---|"
-    J --argjson b "$b" '[.runs[].sweep[] | select(.free_ray_bound_px == $b)] | group_by(.th_f_m) | .[] |
+    # Only runs that swept every th_f (see --sweep-trials): each row then averages the same runs.
+    J --argjson b "$b" '[.runs[] | select(.full_sweep != false) | .sweep[] | select(.free_ray_bound_px == $b)] | group_by(.th_f_m) | .[] |
        def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
        [.[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm), m(.detect_s)] | @tsv' |
       tee "$plots/thf_b$b.dat" |
@@ -81,7 +87,7 @@ EOG
   echo
   echo "| sequence | noise | bound (px) | th_f (m) | R_new | P_new | R_rm | P_rm |"
   echo "|---|---|---|---|---|---|---|---|"
-  J '[.runs[] | . as $r | .sweep[] | . + {sequence: $r.sequence, noise: $r.noise}] |
+  J '[.runs[] | select(.full_sweep != false) | . as $r | .sweep[] | . + {sequence: $r.sequence, noise: $r.noise}] |
      group_by([.sequence, .noise, .free_ray_bound_px, .th_f_m]) | .[] |
      def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
      [.[0].sequence, .[0].noise, .[0].free_ray_bound_px, .[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm)] | @tsv' |
