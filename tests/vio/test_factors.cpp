@@ -3,7 +3,7 @@
 // (position and yaw) that the window keeps out of its prior.
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
 #include <memory>
 #include <random>
 

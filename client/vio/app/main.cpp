@@ -37,7 +37,7 @@ const char* kUsage =
     "                        covariance (0/1), min_zncc, outlier (sigmas), sigma_ba (m/s^2),\n"
     "                        gyro_floor, accel_floor, gyro_walk_floor, accel_walk_floor\n"
     "                        (IMU noise floors), max_time (s),\n"
-    "                        gauge_free_prior (0/1), anchor_sigma (m, rad),\n"
+    "                        gauge_free_prior (0/1),\n"
     "                        init_pnp_points\n"
     "  --log-level L         debug|info|warn|error (default info)\n"
     "  --help                this text\n"
@@ -86,7 +86,6 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   else if (key == "accel_walk_floor") c->min_accel_random_walk = v;
   else if (key == "max_time") c->solver_max_time_s = v;
   else if (key == "gauge_free_prior") c->gauge_free_prior = v != 0;
-  else if (key == "anchor_sigma") c->gauge_anchor_sigma = v;
   else if (key == "init_pnp_points") c->init_max_pnp_points = static_cast<int>(v);
   else {
     *error = "--set: unknown key '" + key + "'";

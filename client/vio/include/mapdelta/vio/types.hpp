@@ -70,7 +70,6 @@ struct VioConfig {
   // Keep position and yaw (the unobservable gauge) out of the marginalization prior and hold
   // them with an anchor on the window's oldest frame (gauge.hpp says why).
   bool gauge_free_prior = true;
-  double gauge_anchor_sigma = 1e-3;  // m and rad
   int solver_iterations = 6;
   // Speed (bench/bench_vio): closed-form reprojection Jacobians instead of autodiff, and
   // for non-keyframes a motion-only solve of the newest state instead of the whole window
