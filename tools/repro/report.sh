@@ -10,8 +10,15 @@ mkdir -p "$plots"
 md=$out/report.md
 f3() { awk -v x="$1" 'BEGIN { if (x == "" || x == "null") print "–"; else printf "%.3f", x }'; }
 
-# Mean over a run group of a jq path; "null" if no value.
+# jq on the results.
 J() { jq -r "$@" "$res"; }
+
+# paper_rmse SEQUENCE NOISE COLUMN -> the paper's Table III value (column 3: PPCA-VINS RMSE,
+# 6: VINS-Fusion RMSE) or "null" where the paper has no row.
+paper_table=$(dirname "$0")/paper_table3.tsv
+paper_rmse() {
+  awk -F'\t' -v s="$1" -v n="$2" -v c="$3" '!/^#/ && $1 == s && $2 == n { v = $(c) } END { print (v == "" ? "null" : v) }' "$paper_table"
+}
 
 {
   echo "# mapdelta: the paper's experiments on the simulator"
@@ -25,14 +32,17 @@ J() { jq -r "$@" "$res"; }
   echo
   echo "## Table III analogue: ATE (m, SE(3)-aligned, keyframe poses), mean over trials"
   echo
-  echo "| sequence | noise | trials | VIO RMSE | VIO STD | VIO MAX | fused RMSE | fused STD | fused MAX |"
-  echo "|---|---|---|---|---|---|---|---|---|"
+  echo "Beside ours, the paper's own Table III (its AirSim sequences of the same names, 5 runs): RMSE of"
+  echo "PPCA-VINS (its prior-assisted VIO, our *fused*) and of VINS-Fusion (VIO alone, our *VIO*)."
+  echo
+  echo "| sequence | noise | trials | VIO RMSE | VIO STD | VIO MAX | fused RMSE | fused STD | fused MAX | paper PPCA-VINS RMSE | paper VINS-Fusion RMSE |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|"
   J '.runs | group_by([.sequence, .noise]) | .[] |
      def m(f): (map(f) | add / length);
      [.[0].sequence, .[0].noise, length, m(.ate_vio.rmse), m(.ate_vio.std), m(.ate_vio.max),
       m(.ate_fused.rmse), m(.ate_fused.std), m(.ate_fused.max)] | @tsv' |
     while IFS=$'\t' read -r s n k a b c d e f; do
-      echo "| $s | $n | $k | $(f3 "$a") | $(f3 "$b") | $(f3 "$c") | $(f3 "$d") | $(f3 "$e") | $(f3 "$f") |"
+      echo "| $s | $n | $k | $(f3 "$a") | $(f3 "$b") | $(f3 "$c") | $(f3 "$d") | $(f3 "$e") | $(f3 "$f") | $(f3 "$(paper_rmse "$s" "$n" 3)") | $(f3 "$(paper_rmse "$s" "$n" 6)") |"
     done
   if J '.runs | any((.vio_resets // 0) > 0)' | grep -q true; then
     echo
@@ -55,33 +65,50 @@ J() { jq -r "$@" "$res"; }
   echo
   echo "## Fig. 4 analogue: th_f sweep (fused poses), mean over sequences and trials"
   echo
-  # Bounds present in the runs (a resumed reproduction may have swept more than its last call).
+  echo "The paper's Fig. 4 uses small noise; big noise is shown beside it (dashed in the plots)."
+  echo
+  # Noise levels and bounds present in the swept runs (a resumed reproduction may have swept more
+  # than its last call asked for).
+  sweep_noises=$(J '[.runs[] | select(.full_sweep != false) | .noise] | unique | sort_by(if . == "small" then 0 elif . == "big" then 1 else 2 end) | join(" ")')
   for b in $(J '.free_ray_bounds_px as $p | ($p + ([.runs[].sweep[].free_ray_bound_px] | unique | map(select(. as $x | $p | index($x) | not))))[]'); do
-    if [ "$b" = 0 ]; then echo "Free-ray bound 0 (the paper's rule: every pixel without depth is free space up to th_f):"
-    else echo "Free-ray bound $b px (the server's default: a pixel without depth is free only up to the nearest depth within $b px):"; fi
-    echo
-    echo "| th_f (m) | R_new | P_new | R_rm | P_rm | detect time (s) |"
-    echo "|---|---|---|---|---|---|"
-    # Only runs that swept every th_f (see --sweep-trials): each row then averages the same runs.
-    J --argjson b "$b" '[.runs[] | select(.full_sweep != false) | .sweep[] | select(.free_ray_bound_px == $b)] | group_by(.th_f_m) | .[] |
-       def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
-       [.[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm), m(.detect_s)] | @tsv' |
-      tee "$plots/thf_b$b.dat" |
-      while IFS=$'\t' read -r t a bb c d e; do
-        echo "| $t | $(f3 "$a") | $(f3 "$bb") | $(f3 "$c") | $(f3 "$d") | $(awk -v x="$e" 'BEGIN{printf "%.1f", x}') |"
-      done
-    echo
-    echo "![th_f sweep, bound $b px](plots/thf_b$b.png)"
-    echo
+    if [ "$b" = 0 ]; then bound_text="Free-ray bound 0 (the paper's rule: every pixel without depth is free space up to th_f)"
+    else bound_text="Free-ray bound $b px (the server's default: a pixel without depth is free only up to the nearest depth within $b px)"; fi
+    plot_cmd=""
+    for noise in $sweep_noises; do
+      echo "$bound_text, $noise noise:"
+      echo
+      echo "| th_f (m) | R_new | P_new | R_rm | P_rm | detect time (s) | runs |"
+      echo "|---|---|---|---|---|---|---|"
+      # Only runs that swept every th_f (see --sweep-trials): each row then averages the same runs.
+      J --argjson b "$b" --arg noise "$noise" '[.runs[] | select(.full_sweep != false and .noise == $noise) | .sweep[] | select(.free_ray_bound_px == $b)] | group_by(.th_f_m) | .[] |
+         def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
+         [.[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm), m(.detect_s), length] | @tsv' |
+        tee "$plots/thf_b$b-$noise.dat" |
+        while IFS=$'\t' read -r t a bb c d e k; do
+          echo "| $t | $(f3 "$a") | $(f3 "$bb") | $(f3 "$c") | $(f3 "$d") | $(awk -v x="$e" 'BEGIN{printf "%.1f", x}') | $k |"
+        done
+      echo
+      if [ -s "$plots/thf_b$b-$noise.dat" ]; then
+        dash=$([ "$noise" = small ] && echo 1 || echo 2)
+        width=$([ "$noise" = small ] && echo 2 || echo 1)
+        plot_cmd+="${plot_cmd:+, }\"$plots/thf_b$b-$noise.dat\" u 1:2 w lp lw $width dt $dash pt 7 lc 1 t \"R_{new} $noise\""
+        plot_cmd+=", \"\" u 1:3 w lp lw $width dt $dash pt 5 lc 2 t \"P_{new} $noise\""
+        plot_cmd+=", \"\" u 1:4 w lp lw $width dt $dash pt 9 lc 3 t \"R_{rm} $noise\""
+        plot_cmd+=", \"\" u 1:5 w lp lw $width dt $dash pt 11 lc 4 t \"P_{rm} $noise\""
+      fi
+    done
     # A crowd-only reproduction (--trials 0) has no sweep points to plot.
-    [ -s "$plots/thf_b$b.dat" ] && gnuplot <<EOG
-set terminal pngcairo size 640,420 font "sans,10"
+    if [ -n "$plot_cmd" ]; then
+      echo "![th_f sweep, bound $b px](plots/thf_b$b.png)"
+      echo
+      gnuplot <<EOG
+set terminal pngcairo size 720,460 font "sans,10"
 set output "$plots/thf_b$b.png"
-set title "th_f sweep (free-ray bound $b px), mean over runs"
-set xlabel "th_f (m)"; set ylabel "recall / precision"; set yrange [0:1.05]; set grid; set key bottom right
-plot "$plots/thf_b$b.dat" u 1:2 w lp lw 2 pt 7 t "R_{new}", "" u 1:3 w lp lw 2 pt 5 t "P_{new}", \
-     "" u 1:4 w lp lw 2 pt 9 t "R_{rm}", "" u 1:5 w lp lw 2 pt 11 t "P_{rm}"
+set title "th_f sweep (free-ray bound $b px), mean over runs (solid: small noise, dashed: big)"
+set xlabel "th_f (m)"; set ylabel "recall / precision"; set yrange [0:1.05]; set grid; set key bottom left
+plot $plot_cmd
 EOG
+    fi
   done
   echo "Per sequence (mean over trials):"
   echo
