@@ -114,6 +114,9 @@ command -v jq >/dev/null || { echo "reproduce-paper: jq is missing (deploy/insta
 command -v gnuplot >/dev/null || { echo "reproduce-paper: gnuplot is missing (deploy/install-deps.sh)" >&2; exit 1; }
 "$bin_sim" renoise --help >/dev/null 2>&1 || { echo "reproduce-paper: $bin_sim has no 'renoise' (rebuild mapdelta-sim)" >&2; exit 1; }
 started=$(date +%s)
+# The commit of the code at the start ('-dirty' with uncommitted changes), recorded in every run:
+# commits made while a reproduction runs do not change the binaries it uses.
+run_commit=$(git -C "$root" describe --always --dirty --abbrev=7 2>/dev/null || echo unknown)
 operating_bound=${bounds%%,*}
 vio_point="th_f $thf_point m, free-ray bound $operating_bound px"
 # shellcheck source=repro/lib.sh
@@ -125,7 +128,7 @@ jq -n --arg preset "$preset" --arg sequences "$sequences" --arg noises "$noises"
   --argjson sweep_trials "$sweep_trials" \
   --argjson seed "$city_seed" --arg thf "$thf_list" --arg bounds "$bounds" --argjson thf_point "$thf_point" \
   --arg crowd "$crowd" --arg crowd_preset "$crowd_preset" --arg crowd_seq "$crowd_seq" --arg crowd_noise "$crowd_noise" \
-  --arg commit "$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)" \
+  --arg commit "$run_commit" \
   --arg started "$(date -u +%Y-%m-%dT%H:%M:%SZ)" --arg cpu "$(lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -1)" \
   --argjson nproc "$(nproc)" --arg load "$(cut -d' ' -f1-3 /proc/loadavg)" \
   '{preset: $preset, sequences: ($sequences | split(",")), noises: ($noises | split(",")), trials: $trials,
@@ -181,7 +184,7 @@ say "results.json, report.md and plots"
 runs_json='[]'  # a crowd-only run (--trials 0) has no runs/ folder
 [ -d "$out/runs" ] && runs_json=$(find "$out/runs" -name run.json | sort | xargs -r cat | jq -s '.')
 crowd_json=$( [ -f "$out/crowd/crowd.json" ] && cat "$out/crowd/crowd.json" || echo null)
-render_json=$( [ -f "$data/render_times.jsonl" ] && jq -s '.' "$data/render_times.jsonl" || echo '[]')
+render_json=$( [ -f "$out/dataset_times.jsonl" ] && jq -s '.' "$out/dataset_times.jsonl" || echo '[]')
 jq -n --slurpfile p "$out/params.json" --argjson runs "$runs_json" --argjson crowd "$crowd_json" \
   --argjson render "$render_json" --arg finished "$(date -u +%Y-%m-%dT%H:%M:%SZ)" \
   --arg load "$(cut -d' ' -f1-3 /proc/loadavg)" \

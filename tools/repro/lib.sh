@@ -1,6 +1,6 @@
 # Functions of tools/reproduce-paper.sh (sourced; uses its variables: bin_*, data, out, preset,
-# city_seed, nice_cmd, log). Every step skips work whose output is already complete, so an
-# interrupted reproduction resumes where it stopped.
+# city_seed, nice_cmd, log, run_commit). Every step skips work whose output is already complete,
+# so an interrupted reproduction resumes where it stopped.
 
 say() { printf '==> [%s %4ds] %s\n' "$(date -u +%H:%M:%S)" $(($(date +%s) - started)) "$*" >&2; }
 die() { echo "reproduce-paper: $*" >&2; exit 1; }
@@ -28,13 +28,13 @@ ensure_dataset() {
       local t0; t0=$(now_s)
       $nice_cmd "$bin_sim" --preset "$p" --out "$clean" --noise none --seed "$city_seed" \
         --sequences "$seq" --quiet >>"$log" 2>&1 || die "mapdelta-sim failed (see $log)"
-      echo "{\"preset\":\"$p\",\"sequence\":\"$seq\",\"render_s\":$(elapsed "$t0")}" >>"$data/render_times.jsonl"
+      echo "{\"preset\":\"$p\",\"sequence\":\"$seq\",\"render_s\":$(elapsed "$t0")}" >>"$out/dataset_times.jsonl"
     fi
     say "renoise $p/$seq: noise $noise, seed $k -> $root"
     local t0; t0=$(now_s)
     $nice_cmd "$bin_sim" renoise --from "$clean" --out "$root" --noise "$noise" --seed "$k" \
       --sequences "$seq" --quiet >>"$log" 2>&1 || die "mapdelta-sim renoise failed (see $log)"
-    echo "{\"preset\":\"$p\",\"sequence\":\"$seq\",\"noise\":\"$noise\",\"seed\":$k,\"renoise_s\":$(elapsed "$t0")}" >>"$data/render_times.jsonl"
+    echo "{\"preset\":\"$p\",\"sequence\":\"$seq\",\"noise\":\"$noise\",\"seed\":$k,\"renoise_s\":$(elapsed "$t0")}" >>"$out/dataset_times.jsonl"
   fi
   echo "$root"
 }
@@ -143,7 +143,7 @@ run_json() {
     --slurpfile av "$run/ate_vio.json" --slurpfile af "$run/ate_fused.json" \
     --argjson timing "$(timing_json "$run/client")" --argjson sweep "$sweep" --argjson vio "$vio" \
     --arg vio_params "$vio_point" --argjson full_sweep "$5" \
-    --arg commit "$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)" \
+    --arg commit "$run_commit" \
     '{sequence: $seq, noise: $noise, trial: $k, commit: $commit, full_sweep: $full_sweep,
       ate_vio: ($av[0] | {rmse, std, max, mean, pairs}), ate_fused: ($af[0] | {rmse, std, max, mean, pairs}),
       client_timing: $timing, sweep: $sweep, vio_pose_changes: $vio, vio_pose_params: $vio_params} + $resets[0]'
