@@ -3,7 +3,9 @@
 #  - repro/vio_keyframes.sh: T_map_cam = T_map_body * T_BS for an identity pose and a 90 deg yaw;
 #    a keyframe without a VIO pose is an error.
 #  - repro/crowd.sh merge_keyframes: stamps of session i shifted by i*1000 s, depth renamed.
-#  - repro/report.sh: Table III means over trials, the th_f table and the PNGs.
+#  - repro/report.sh: Table III means over trials beside the paper's values, the th_f table per
+#    noise level and the PNGs.
+#  - repro/restore.sh: the runs of a results.json come back as OUT/runs/SEQ-NOISE-tK/run.json.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 tools=$here/../../tools
@@ -70,9 +72,21 @@ cat >"$tmp/results.json" <<'EOJ'
 EOJ
 bash "$tools/repro/report.sh" "$tmp/results.json" "$tmp/report" 2>/dev/null
 md=$tmp/report/report.md
-grep -qF '| S1_01 | small | 2 | 0.500 | 0.200 | 0.900 | 0.200 | 0.100 | 0.300 |' "$md" || fail "Table III row (means over 2 trials)"
-grep -qF '| 10 | 0.800 | 0.700 | 0.600 | 0.500 | 2.0 |' "$md" || fail "th_f 10 row"
+# The last two columns are the paper's Table III for S1_01 small (PPCA-VINS, VINS-Fusion RMSE).
+grep -qF '| S1_01 | small | 2 | 0.500 | 0.200 | 0.900 | 0.200 | 0.100 | 0.300 | 1.097 | 1.768 |' "$md" || fail "Table III row (means over 2 trials)"
+grep -qF '| 10 | 0.800 | 0.700 | 0.600 | 0.500 | 2.0 | 2 |' "$md" || fail "th_f 10 row"
+grep -qF 'Free-ray bound 128 px (the server'"'"'s default: a pixel without depth is free only up to the nearest depth within 128 px), small noise:' "$md" ||
+  fail "th_f table heading per noise level"
 grep -qF '| S1_01 | small | VIO only | 0.400 | 0.400 | 0.400 | 0.400 |' "$md" || fail "Fig. 6 VIO row"
 grep -qF '| odometry | 150.0 | 100 | 15.0 |' "$md" || fail "timing row"
 for p in thf_b128 fig6; do [ -s "$tmp/report/plots/$p.png" ] || fail "plot $p.png missing"; done
+# restore.sh: the two runs come back under their names, identical to the record; a second call
+# keeps them; a file that is not a results.json is refused.
+bash "$tools/repro/restore.sh" "$tmp/results.json" "$tmp/restored" 2>/dev/null
+for k in 1 2; do
+  jq -e --slurpfile r "$tmp/results.json" --argjson k "$k" '. == ($r[0].runs[] | select(.trial == $k))' \
+    "$tmp/restored/runs/S1_01-small-t$k/run.json" >/dev/null || fail "restored run.json of trial $k"
+done
+bash "$tools/repro/restore.sh" "$tmp/results.json" "$tmp/restored" 2>&1 | grep -q '0 run(s) restored' || fail "restore twice"
+if bash "$tools/repro/restore.sh" "$md" "$tmp/restored2" 2>/dev/null; then fail "restore accepted a Markdown file"; fi
 echo "repro helpers: all checks passed"
