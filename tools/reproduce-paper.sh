@@ -23,7 +23,7 @@ usage: bash tools/reproduce-paper.sh --out DIR [options]
                       default, 0 = the paper's rule); the first is the operating point
   --thf-point M       th_f of the operating point (Table, Fig. 6 analogue; default 20)
   --crowd LIST        numbers of uploads for the crowdsourcing curve (default 1,2,4,8; 'none' skips)
-  --crowd-preset P    preset of the crowdsourcing scene (default tiny: 8 paper uploads take hours)
+  --crowd-preset P    preset of the crowdsourcing scene (default tiny: 4 min; paper: about 40 min)
   --crowd-sequence S  sequence every upload drives (default S1_01), with noise seeds 1..max
   --crowd-noise N     noise of the crowd uploads (default small)
   --data DIR          dataset cache (clean renders, renoised trials; default OUT/data)
