@@ -181,16 +181,16 @@ if [ "$report_only" = 0 ]; then
 fi
 
 say "results.json, report.md and plots"
-# The parts go to jq as files: a dozen runs exceed the kernel's 128 KiB limit on one argument.
-parts=$(mktemp -d)
+# The runs come on stdin and the rest as files: a dozen runs passed as one argument exceeded the
+# kernel's 128 KiB limit. A missing part reads /dev/null, which --slurpfile makes [].
+crowd_file=$out/crowd/crowd.json times_file=$out/dataset_times.jsonl
+[ -f "$crowd_file" ] || crowd_file=/dev/null
+[ -f "$times_file" ] || times_file=/dev/null
 # A crowd-only run (--trials 0) has no runs/ folder: then no input, and jq -s makes [].
-{ if [ -d "$out/runs" ]; then find "$out/runs" -name run.json | sort | xargs -r cat; fi; } | jq -s '.' >"$parts/runs.json"
-if [ -f "$out/crowd/crowd.json" ]; then cp "$out/crowd/crowd.json" "$parts/crowd.json"; else echo null >"$parts/crowd.json"; fi
-{ if [ -f "$out/dataset_times.jsonl" ]; then cat "$out/dataset_times.jsonl"; fi; } | jq -s '.' >"$parts/dataset_times.json"
-jq -n --slurpfile p "$out/params.json" --slurpfile runs "$parts/runs.json" --slurpfile crowd "$parts/crowd.json" \
-  --slurpfile times "$parts/dataset_times.json" --arg finished "$(date -u +%Y-%m-%dT%H:%M:%SZ)" \
-  --arg load "$(cut -d' ' -f1-3 /proc/loadavg)" \
-  '$p[0] + {finished: $finished, loadavg_at_end: $load, runs: $runs[0], crowd: $crowd[0], dataset_times: $times[0]}' >"$out/results.json"
-rm -rf "$parts"
+{ if [ -d "$out/runs" ]; then find "$out/runs" -name run.json | sort | xargs -r cat; fi; } |
+  jq -s --slurpfile p "$out/params.json" --slurpfile crowd "$crowd_file" --slurpfile times "$times_file" \
+    --arg finished "$(date -u +%Y-%m-%dT%H:%M:%SZ)" --arg load "$(cut -d' ' -f1-3 /proc/loadavg)" \
+    '$p[0] + {finished: $finished, loadavg_at_end: $load, runs: ., crowd: ($crowd[0] // null), dataset_times: $times}' \
+    >"$out/results.json"
 bash "$root/tools/repro/report.sh" "$out/results.json" "$out"
 say "done: $out/report.md, $out/results.json, $out/plots/"

@@ -89,12 +89,12 @@ paper_rmse() {
         done
       echo
       if [ -s "$plots/thf_b$b-$noise.dat" ]; then
-        dash=$([ "$noise" = small ] && echo 1 || echo 2)
-        width=$([ "$noise" = small ] && echo 2 || echo 1)
-        plot_cmd+="${plot_cmd:+, }\"$plots/thf_b$b-$noise.dat\" u 1:2 w lp lw $width dt $dash pt 7 lc 1 t \"R_{new} $noise\""
-        plot_cmd+=", \"\" u 1:3 w lp lw $width dt $dash pt 5 lc 2 t \"P_{new} $noise\""
-        plot_cmd+=", \"\" u 1:4 w lp lw $width dt $dash pt 9 lc 3 t \"R_{rm} $noise\""
-        plot_cmd+=", \"\" u 1:5 w lp lw $width dt $dash pt 11 lc 4 t \"P_{rm} $noise\""
+        style="lw 1 dt 2"  # small noise solid and bold, other levels dashed
+        [ "$noise" = small ] && style="lw 2 dt 1"
+        for spec in "2 7 R_{new}" "3 5 P_{new}" "4 9 R_{rm}" "5 11 P_{rm}"; do
+          read -r col point label <<<"$spec"
+          plot_cmd+="${plot_cmd:+, }\"$plots/thf_b$b-$noise.dat\" u 1:$col w lp $style pt $point lc $((col - 1)) t \"$label $noise\""
+        done
       fi
     done
     # A crowd-only reproduction (--trials 0) has no sweep points to plot.
