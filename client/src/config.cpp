@@ -62,6 +62,7 @@ std::vector<Field> Fields(ClientConfig& c) {
       {"registration", "relocalize_max_correction_m", &r.relocalize_max_correction_m, 0, 1e6},
       {"registration", "relocalize_max_correction_deg", &r.relocalize_max_correction_deg, 0, 180},
       {"registration", "reanchor_yaw_hypotheses", &r.reanchor_yaw_hypotheses, 1, 360},
+      {"registration", "max_tilt_deg", &r.max_tilt_deg, 0, 180},
       {"fusion", "odom_sigma_rot_rad", &f.odom_sigma_rot_rad, 1e-9, 10},
       {"fusion", "odom_sigma_trans_m", &f.odom_sigma_trans_m, 1e-9, 1e6},
       {"fusion", "odom_sigma_trans_per_m", &f.odom_sigma_trans_per_m, 0, 10},

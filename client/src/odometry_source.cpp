@@ -42,4 +42,8 @@ std::optional<OdometrySample> InjectedResetOdometrySource::At(int64_t t_ns, cons
   return sample;
 }
 
+bool InjectedResetOdometrySource::GravityAligned() const {
+  return inner_->GravityAligned() && (T_new_old_.linear() * Eigen::Vector3d::UnitZ()).z() > 1.0 - 1e-9;
+}
+
 }  // namespace mapdelta::client

@@ -79,7 +79,7 @@ class Backend {
           const SE3& initial_guess, StageTimer* timer, BoundedQueue<FinalKeyframe>* out,
           PipelineResult* result)
       : config_(config), rig_(rig), timer_(timer), out_(out), result_(result),
-        fusion_(config.fusion) {
+        fusion_(config.fusion), gravity_aligned_odometry_(in.odometry->GravityAligned()) {
     Matrix6 init_cov = Matrix6::Zero();
     init_cov.diagonal() << Eigen::Vector3d::Constant(std::pow(config.fusion.init_sigma_rot_rad, 2)),
         Eigen::Vector3d::Constant(std::pow(config.fusion.init_sigma_trans_m, 2));
@@ -189,17 +189,20 @@ class Backend {
     {
       StageTimer::Scope t(timer_, "4 registration");
       const SE3 guess = fusion_.FusedPose(k);
+      // The body's up direction in the odometry frame: z up there when the source is a VIO.
+      std::optional<Eigen::Vector3d> up;
+      if (gravity_aligned_odometry_) up = fusion_.OdometryPose(k).linear().transpose() * Eigen::Vector3d::UnitZ();
+      const double reloc_m = rc.relocalize_max_correction_m;
+      const double reloc_rad = rc.relocalize_max_correction_deg * M_PI / 180.0;
       if (!started_) {
-        r = registrar_->RefineInitialPose(local, guess);
+        r = registrar_->RefineInitialPose(local, guess, 4.0, 0.26, up);  // the registrar's start-up limits
       } else if (reanchor) {
-        r = registrar_->RefineAmongGuesses(local, ReanchorGuesses(k), rc.relocalize_max_correction_m,
-                                           rc.relocalize_max_correction_deg * M_PI / 180.0);
+        r = registrar_->RefineAmongGuesses(local, ReanchorGuesses(k), reloc_m, reloc_rad, up);
       } else if (relocalize) {
         // Lost: odometry drifted beyond what the normal gate accepts. Search like at start-up.
-        r = registrar_->RefineInitialPose(local, guess, rc.relocalize_max_correction_m,
-                                          rc.relocalize_max_correction_deg * M_PI / 180.0);
+        r = registrar_->RefineInitialPose(local, guess, reloc_m, reloc_rad, up);
       } else {
-        r = registrar_->Register(local, guess);
+        r = registrar_->Register(local, guess, up);
       }
     }
     const char* mode = !started_  ? " (start-up)"
@@ -327,6 +330,7 @@ class Backend {
   // The same keyframes filtered with registration_alpha (empty when it equals alpha).
   std::deque<std::optional<DepthImage>> registration_depth_;
   size_t first_unemitted_ = 0;
+  const bool gravity_aligned_odometry_;  // registrations are checked against its gravity
   bool started_ = false;            // start-up refinement accepted
   int rejected_in_row_ = 0;
   size_t since_cloud_ = 0;          // keyframes of the current segment since the last local cloud

@@ -31,6 +31,14 @@ struct PriorRegistrar::Impl {
     return p;
   }
 
+  RegistrationGate Gate(const std::optional<Eigen::Vector3d>& odometry_up) const {
+    RegistrationGate gate;
+    gate.max_fitness_m = config.max_fitness_m;
+    gate.source_up = odometry_up;
+    gate.max_tilt_rad = config.max_tilt_deg * M_PI / 180.0;
+    return gate;
+  }
+
   // The prior around (x, y), rebuilt only when the neighbourhood (its tiles) changes.
   const GicpCloud* Target(const Eigen::Vector3d& position) {
     const double r = config.prior_radius_m;
@@ -102,9 +110,9 @@ PriorRegistrar::PriorRegistrar(const RegistrationConfig& config, PriorSource* pr
 }
 PriorRegistrar::~PriorRegistrar() = default;
 
-RegistrationOutcome PriorRegistrar::Register(const PointCloud& local_body, const SE3& guess) {
-  RegistrationGate gate;
-  gate.max_fitness_m = impl_->config.max_fitness_m;
+RegistrationOutcome PriorRegistrar::Register(const PointCloud& local_body, const SE3& guess,
+                                             const std::optional<Eigen::Vector3d>& odometry_up) {
+  RegistrationGate gate = impl_->Gate(odometry_up);
   gate.max_correction_m = impl_->config.max_correction_m;
   gate.max_correction_rad = impl_->config.max_correction_deg * M_PI / 180.0;
   return impl_->Run(local_body, guess, 0.0, gate);
@@ -112,9 +120,9 @@ RegistrationOutcome PriorRegistrar::Register(const PointCloud& local_body, const
 
 RegistrationOutcome PriorRegistrar::RefineInitialPose(const PointCloud& local_body, const SE3& guess,
                                                       double max_guess_error_m,
-                                                      double max_guess_error_rad) {
-  RegistrationGate gate;
-  gate.max_fitness_m = impl_->config.max_fitness_m;
+                                                      double max_guess_error_rad,
+                                                      const std::optional<Eigen::Vector3d>& odometry_up) {
+  RegistrationGate gate = impl_->Gate(odometry_up);
   gate.max_correction_m = max_guess_error_m;
   gate.max_correction_rad = max_guess_error_rad;
   const double coarse = std::max(2.5 * impl_->config.max_correspondence_m, 2.0 * max_guess_error_m);
@@ -124,12 +132,14 @@ RegistrationOutcome PriorRegistrar::RefineInitialPose(const PointCloud& local_bo
 RegistrationOutcome PriorRegistrar::RefineAmongGuesses(const PointCloud& local_body,
                                                       const std::vector<SE3>& guesses,
                                                       double max_guess_error_m, double max_guess_error_rad,
+                                                      const std::optional<Eigen::Vector3d>& odometry_up,
                                                       double ambiguity_ratio) {
   std::vector<std::pair<double, RegistrationOutcome>> accepted;  // (close fraction, outcome)
   RegistrationOutcome first_rejected;
   const double close_radius = 0.5 * impl_->config.max_fitness_m;
   for (const SE3& guess : guesses) {
-    RegistrationOutcome r = RefineInitialPose(local_body, guess, max_guess_error_m, max_guess_error_rad);
+    RegistrationOutcome r =
+        RefineInitialPose(local_body, guess, max_guess_error_m, max_guess_error_rad, odometry_up);
     const double close = r.accepted ? impl_->CloseFraction(local_body, r.T_map_body, close_radius) : 0.0;
     MD_LOG(kDebug, "re-anchor hypothesis at (" << guess.translation().transpose() << "): " << r.reason
                                                 << ", within " << close_radius << " m " << close

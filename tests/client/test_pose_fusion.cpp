@@ -153,7 +153,9 @@ TEST(PoseFusion, FusedAteWellBelowDriftingOdometryAndNeverWorse) {
       std::printf("%-14s  %4u  %9.3f m   %9.3f m / %7.3f m          %6.3f s\n", c.name, seed,
                   o.odom_ate, o.fused_ate, o.fused_ate_unaligned, o.final_seconds);
       EXPECT_LE(o.fused_ate, 1.05 * o.odom_ate) << c.name << " seed " << seed;
-      if (o.odom_ate > 1.0) EXPECT_LT(o.fused_ate, 0.3 * o.odom_ate) << c.name << " seed " << seed;
+      if (o.odom_ate > 1.0) {
+        EXPECT_LT(o.fused_ate, 0.3 * o.odom_ate) << c.name << " seed " << seed;
+      }
       // In the map frame (no alignment) the fused poses stay near the registrations' accuracy.
       EXPECT_LT(o.fused_ate_unaligned, 0.5) << c.name << " seed " << seed;
     }

@@ -147,6 +147,31 @@ TEST_F(PriorRegistrationTest, ReanchoringAmongHeadingHypothesesFindsTheTruth) {
   EXPECT_NE(none.reason.find("none of 4"), std::string::npos) << none.reason;
 }
 
+// A gravity-aligned odometry (the VIO) knows the body's up direction; a registration that
+// fits the prior but tilts the body against it by more than max_tilt_deg is a wrong match.
+TEST_F(PriorRegistrationTest, RegistrationTiltedAgainstTheOdometrysGravityIsRejected) {
+  FilePriorSource prior(path_, 0.4);
+  const RegistrationConfig config;
+  ASSERT_NEAR(config.max_tilt_deg, 6.0, 1e-12);
+  PriorRegistrar registrar(config, &prior);
+  const SE3 truth = Pose(-4.0, 2.0, 30.0);  // level: the body's up is the map's +z
+  const PointCloud local = LocalCloud(scene_, truth, 3);
+  const SE3 guess = Offset(truth, 0.5, -0.3, 1.0);
+  const auto odometry_up = [](double tilt_deg) {
+    return Eigen::Vector3d(Eigen::AngleAxisd(tilt_deg * M_PI / 180.0, Eigen::Vector3d::UnitX()) *
+                           Eigen::Vector3d::UnitZ());
+  };
+  const RegistrationOutcome level = registrar.Register(local, guess, odometry_up(0.0));
+  EXPECT_TRUE(level.accepted) << level.reason;
+  const RegistrationOutcome slight = registrar.Register(local, guess, odometry_up(4.0));
+  EXPECT_TRUE(slight.accepted) << slight.reason;
+  const RegistrationOutcome tilted = registrar.Register(local, guess, odometry_up(10.0));
+  EXPECT_FALSE(tilted.accepted);
+  EXPECT_NE(tilted.reason.find("from the odometry's gravity > max_tilt 6 deg"), std::string::npos) << tilted.reason;
+  // Without an odometry gravity there is nothing to check against.
+  EXPECT_TRUE(registrar.Register(local, guess).accepted);
+}
+
 TEST_F(PriorRegistrationTest, BadGuessIsRejectedNotAccepted) {
   FilePriorSource prior(path_, 0.4);
   PriorRegistrar registrar(RegistrationConfig{}, &prior);

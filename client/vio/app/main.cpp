@@ -63,6 +63,8 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   const std::string key = kv.substr(0, eq);
   if (key == "iterations") c->solver_iterations = static_cast<int>(v);
   else if (key == "sigma_ba") c->init_accel_bias_sigma = v;
+  else if (key == "sigma_bg") c->init_gyro_bias_sigma = v;
+  else if (key == "init_bias_gate") c->init_max_bias_shift_sigmas = v;
   else if (key == "window") c->window_keyframes = static_cast<int>(v);
   else if (key == "init_frames") c->init_frames = static_cast<int>(v);
   else if (key == "init_span") c->init_min_span_s = v;

@@ -25,7 +25,11 @@ struct StatePrior {
   Eigen::Vector3d p0;
   Eigen::Quaterniond q0;
   Eigen::Vector3d bg0, ba0;
-  double sigma_p = 0.01, sigma_yaw = 0.01, sigma_bg = 0.02, sigma_ba = 0.2;
+  double sigma_p = 0.01, sigma_yaw = 0.01, sigma_bg = 0.02, sigma_ba = 0.05;
+  // Root of the biases' squared normalized shifts from bg0, ba0 (the prior's bias part).
+  double BiasShiftSigmas(const NavState& s) const {
+    return std::sqrt(((s.bg - bg0) / sigma_bg).squaredNorm() + ((s.ba - ba0) / sigma_ba).squaredNorm());
+  }
   template <typename T>
   bool operator()(const T* pose, const T* sb, T* r) const {
     using V3 = Eigen::Matrix<T, 3, 1>;
@@ -76,7 +80,7 @@ NavState SlidingWindowEstimator::StateOf(const Frame& f) const {
   return s;
 }
 
-NavState SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
+std::optional<NavState> SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
   window_.clear();
   landmarks_.clear();
   prior_.reset();
@@ -94,15 +98,16 @@ NavState SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
   for (auto& [id, lm] : landmarks_) Triangulate(&lm);
   // The gauge prior on the first frame starts the marginalization chain.
   Frame& first = *window_.front();
-  auto* prior = new StatePrior;
-  prior->sigma_ba = config_.init_accel_bias_sigma;
-  prior->p0 = Eigen::Map<const Eigen::Vector3d>(first.pose);
-  prior->q0 = Eigen::Map<const Eigen::Quaterniond>(first.pose + 3);
-  prior->bg0 = Eigen::Map<const Eigen::Vector3d>(first.sb + 3);
-  prior->ba0 = Eigen::Map<const Eigen::Vector3d>(first.sb + 6);
+  StatePrior prior;
+  prior.sigma_bg = config_.init_gyro_bias_sigma;
+  prior.sigma_ba = config_.init_accel_bias_sigma;
+  prior.p0 = Eigen::Map<const Eigen::Vector3d>(first.pose);
+  prior.q0 = Eigen::Map<const Eigen::Quaterniond>(first.pose + 3);
+  prior.bg0 = Eigen::Map<const Eigen::Vector3d>(first.sb + 3);
+  prior.ba0 = Eigen::Map<const Eigen::Vector3d>(first.sb + 6);
   prior_ = std::make_shared<Marginalizer>();
-  prior_->AddResidualBlock(new ceres::AutoDiffCostFunction<StatePrior, 10, 7, 9>(prior), nullptr,
-                           {first.pose, first.sb});
+  prior_->AddResidualBlock(new ceres::AutoDiffCostFunction<StatePrior, 10, 7, 9>(new StatePrior(prior)),
+                           nullptr, {first.pose, first.sb});
   prior_->Marginalize();
   // The linear alignment's gravity is a few degrees off (frame-to-frame PnP positions are
   // noisy over a short chain); a converged joint solve fixes the tilt before the first
@@ -111,6 +116,18 @@ NavState SlidingWindowEstimator::Start(std::vector<InitFrame> frames) {
   RemoveOutliers();
   Optimize(config_.init_solver_iterations, config_.init_solver_max_time_s);
   const NavState newest = StateOf(*window_.back());
+  const double shift = prior.BiasShiftSigmas(newest);
+  MD_LOG(kDebug, "vio init: first solve moved the biases by " << shift << " sigmas (bg "
+                     << newest.bg.transpose() << ", ba " << newest.ba.transpose() << ")");
+  if (!(shift <= config_.init_max_bias_shift_sigmas)) {
+    MD_LOG(kInfo, "vio init rejected: the first solve moved the biases by " << shift
+                      << " sigmas (bg " << newest.bg.transpose() << " rad/s, ba "
+                      << newest.ba.transpose() << " m/s^2); initializing again");
+    window_.clear();
+    landmarks_.clear();
+    prior_.reset();
+    return std::nullopt;
+  }
   while (static_cast<int>(window_.size()) > config_.window_keyframes) MarginalizeOldest();
   return newest;
 }

@@ -191,7 +191,8 @@ bool Initializer::Align(std::vector<InitFrame>* frames_ptr) const {
                      << " m, first speed " << frames.front().state.v_world.norm());
   MD_LOG(kInfo, "vio initialized at t_ns=" << frames.back().features.t_ns << ": |g|="
                                            << g.norm() << " bg=" << bg.transpose()
-                                           << " speed=" << frames.back().state.v_world.norm());
+                                           << " speed=" << frames.back().state.v_world.norm()
+                                           << " fit_rms=" << rms);
   return true;
 }
 

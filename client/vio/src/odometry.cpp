@@ -205,12 +205,16 @@ FrameEstimate StereoInertialOdometry::AddTrackedFrame(const TrackedFrame& tracke
     auto init = m.initializer.AddFrame(features, pre);
     if (init) {
       m.estimator = std::make_unique<SlidingWindowEstimator>(m.config, m.ext);
-      const NavState last = m.estimator->Start(std::move(*init));
-      e.initialized = true;
-      e.T_world_body = last.T_world_body * m.T_body_imu.inverse();
-      e.v_world = last.v_world;
-      e.gyro_bias = last.bg;
-      e.accel_bias = last.ba;
+      const std::optional<NavState> last = m.estimator->Start(std::move(*init));
+      if (last) {
+        e.initialized = true;
+        e.T_world_body = last->T_world_body * m.T_body_imu.inverse();
+        e.v_world = last->v_world;
+        e.gyro_bias = last->bg;
+        e.accel_bias = last->ba;
+      } else {
+        m.estimator.reset();
+      }
     }
     e.times.initialization_ms = MsSince(t_init);
   } else {

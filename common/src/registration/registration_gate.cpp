@@ -1,6 +1,8 @@
 #include "mapdelta/common/registration/registration_gate.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
 #include <sstream>
 
 namespace mapdelta {
@@ -42,6 +44,15 @@ GateDecision CheckRegistration(const RegistrationResult& result, const SE3& init
   if (!(result.fitness_m <= gate.max_fitness_m)) {
     why << "fitness " << result.fitness_m << " m > max_fitness_m " << gate.max_fitness_m;
     return Reject(decision, why.str());
+  }
+  if (gate.source_up) {
+    const Eigen::Vector3d up = result.T_target_source.linear() * gate.source_up->normalized();
+    decision.tilt_rad = std::acos(std::clamp(up.z(), -1.0, 1.0));
+    if (!(decision.tilt_rad <= gate.max_tilt_rad)) {
+      why << "tilt " << decision.tilt_rad * 180.0 / M_PI << " deg from the odometry's gravity > max_tilt "
+          << gate.max_tilt_rad * 180.0 / M_PI << " deg";
+      return Reject(decision, why.str());
+    }
   }
   if (!(decision.correction_m <= gate.max_correction_m)) {
     why << "correction " << decision.correction_m << " m > max_correction_m "

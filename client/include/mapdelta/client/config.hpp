@@ -72,6 +72,9 @@ struct RegistrationConfig {
   // headings (the new VIO frame's yaw is arbitrary and the vehicle may have turned or
   // reversed during the gap); the relocalize_* limits apply around each hypothesis.
   int reanchor_yaw_hypotheses = 12;
+  // Registrations tilted against a gravity-aligned odometry's (the VIO's) gravity by more
+  // than this are rejected (RegistrationGate::source_up). 180 turns the check off.
+  double max_tilt_deg = 6.0;
 };
 
 struct FusionConfig {

@@ -40,6 +40,10 @@ class OdometrySource {
   // At(): with NeedsImages() the pipeline calls it on its decoding thread for every frame, in
   // order, up to a few frames before At(t_ns) runs on another thread.
   virtual void PrepareFrame(int64_t /*t_ns*/, const StereoImages& /*images*/) {}
+  // Whether every segment's odometry frame has z up (gravity along -z), like the map: a VIO
+  // measures gravity, and registrations tilted against it are then rejected
+  // (RegistrationConfig::max_tilt_deg). A recorded trajectory may come from anywhere: false.
+  virtual bool GravityAligned() const { return false; }
 };
 
 // A recorded trajectory, interpolated at the asked times. Throws Error naming the file.
@@ -65,6 +69,8 @@ class InjectedResetOdometrySource : public OdometrySource {
   std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* images) override;
   bool NeedsImages() const override { return inner_->NeedsImages(); }
   void PrepareFrame(int64_t t_ns, const StereoImages& images) override { inner_->PrepareFrame(t_ns, images); }
+  // T_new_old may tilt the new frame: aligned only if it keeps z.
+  bool GravityAligned() const override;
 
  private:
   OdometrySource* inner_;

@@ -3,6 +3,7 @@
 // its quality gate), plus the start-up refinement of a rough initial pose (e.g. GNSS).
 // Rejected registrations carry the gate's reason; the caller logs them and never fuses them.
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,14 +35,19 @@ class PriorRegistrar {
   ~PriorRegistrar();
 
   // local_body: the local cloud in the anchor's body frame; guess: predicted T_map_body.
-  RegistrationOutcome Register(const PointCloud& local_body, const SE3& guess_T_map_body);
+  // odometry_up, in every method: the body's up direction as a gravity-aligned odometry (the
+  // VIO) measures it; results tilted against it beyond max_tilt_deg are rejected
+  // (RegistrationGate::source_up says why).
+  RegistrationOutcome Register(const PointCloud& local_body, const SE3& guess_T_map_body,
+                               const std::optional<Eigen::Vector3d>& odometry_up = std::nullopt);
 
   // Start-up: coarse-to-fine registration from a rough guess. The coarse pass uses a wide
   // correspondence radius so a guess off by several metres still finds its surfaces; the
   // result passes the normal fitness gate and a correction limit of max_guess_error_m/_rad.
   RegistrationOutcome RefineInitialPose(const PointCloud& local_body, const SE3& guess_T_map_body,
                                         double max_guess_error_m = 4.0,
-                                        double max_guess_error_rad = 0.26);
+                                        double max_guess_error_rad = 0.26,
+                                        const std::optional<Eigen::Vector3d>& odometry_up = std::nullopt);
 
   // Re-anchoring after an odometry reset: RefineInitialPose from each of several guesses
   // (e.g. heading and position hypotheses across the gap). Among the accepted results the one
@@ -53,6 +59,7 @@ class PriorRegistrar {
   // either way gave 0.63 (wrong) and 0.54 (right). `reason` reports how many were accepted.
   RegistrationOutcome RefineAmongGuesses(const PointCloud& local_body, const std::vector<SE3>& guesses,
                                          double max_guess_error_m, double max_guess_error_rad,
+                                         const std::optional<Eigen::Vector3d>& odometry_up = std::nullopt,
                                          double ambiguity_ratio = 0.8);
 
  private:

@@ -20,6 +20,7 @@ class VioOdometrySource : public OdometrySource {
   // number (OdometrySample::segment).
   std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* images) override;
   bool NeedsImages() const override { return true; }
+  bool GravityAligned() const override { return true; }
   // Runs the VIO's front end (feature tracking) on the frame; At(t_ns) then only estimates.
   // Either every frame is prepared or none.
   void PrepareFrame(int64_t t_ns, const StereoImages& images) override;

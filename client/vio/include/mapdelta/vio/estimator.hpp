@@ -47,8 +47,10 @@ class SlidingWindowEstimator {
   SlidingWindowEstimator(const VioConfig& config, const StereoExtrinsics& extrinsics);
   ~SlidingWindowEstimator();
   // Starts the window from an initialization; returns the newest frame's state after a first
-  // joint visual-inertial solve (the linear alignment alone leaves degrees of tilt error).
-  NavState Start(std::vector<InitFrame> frames);
+  // joint visual-inertial solve (the linear alignment alone leaves degrees of tilt error), or
+  // nothing when that solve contradicts the alignment (init_max_bias_shift_sigmas): then the
+  // estimator is empty and the caller initializes again on later frames.
+  std::optional<NavState> Start(std::vector<InitFrame> frames);
   EstimatorOutput AddFrame(const FrameFeatures& features, const ImuPreintegration& pre);
   // Keyframes that left the window (final estimates), oldest first; clears the list.
   std::vector<FinalizedKeyframe> TakeFinalized();

@@ -60,13 +60,22 @@ struct VioConfig {
   // error, and zero densities would make the IMU factors infinitely stiff.
   double min_gyro_noise_density = 2e-4, min_accel_noise_density = 2e-3;
   double min_gyro_random_walk = 2e-5, min_accel_random_walk = 2e-4;
-  // Prior on the accelerometer bias at (re)initialization, m/s^2 (the gyro bias: 0.02 rad/s).
+  // Prior on the accelerometer bias at (re)initialization, m/s^2.
   // While the vehicle drives straight at constant speed, accelerometer bias and tilt are not
   // separable; the window solve then drifts along that direction. With 0.2, noiseless paper
   // S2_01 moved the bias to 0.7 m/s^2 within 3 s after initialization (4 deg of tilt, 2 deg
   // of yaw error kept for good); 0.1 still drifted (0.7 deg at 8 s); 0.05 held the tilt at
   // 0.1 deg. Real MEMS turn-on biases can be larger: lower it only with calibrated IMUs.
   double init_accel_bias_sigma = 0.05;
+  double init_gyro_bias_sigma = 0.02;  // rad/s; the alignment estimates it from the rotations
+  // Reject an initialization whose first joint solve moves the biases away from the
+  // alignment's (gyro) and from zero (accelerometer) by more than this many sigmas (the root of
+  // the six components' squared normalized shifts). A window the alignment got wrong can only
+  // be fitted by absorbing the error into the biases: paper S1_02, small noise, seed 2
+  // initialized with |g| 10.75 from a noisy PnP chain, and the first solve moved bg_z from
+  // 0.002 to 0.094 rad/s and ba_z to -0.38 m/s^2 (9 sigmas); the yaw then drifted 5 deg/s
+  // until the window lost its landmarks. Rejected, the initializer retries on later frames.
+  double init_max_bias_shift_sigmas = 4.0;
   // Keep position and yaw (the unobservable gauge) out of the marginalization prior and hold
   // them with an anchor on the window's oldest frame (gauge.hpp says why).
   bool gauge_free_prior = true;
