@@ -34,7 +34,9 @@ const char* kUsage =
     "                        init_span (s), init_iterations, analytic (0/1),\n"
     "                        motion_only (0/1), max_features, klt_window, klt_levels,\n"
     "                        min_distance, pixel_sigma, huber, parallax, right_other (0/1),\n"
-    "                        covariance (0/1), min_zncc, outlier (sigmas), sigma_ba (m/s^2),\n"
+    "                        covariance (0/1), min_zncc, outlier (sigmas), prediction_gate\n"
+    "                        (sigmas), sigma_ba (m/s^2), sigma_bg (rad/s), init_bias_gate\n"
+    "                        (sigmas),\n"
     "                        gyro_floor, accel_floor, gyro_walk_floor, accel_walk_floor\n"
     "                        (IMU noise floors), max_time (s),\n"
     "                        gauge_free_prior (0/1),\n"
@@ -82,6 +84,7 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   else if (key == "motion_only") c->motion_only_non_keyframes = v != 0;
   else if (key == "min_zncc") c->tracker.min_zncc = v;
   else if (key == "outlier") c->outlier_sigmas = v;
+  else if (key == "prediction_gate") c->prediction_gate_sigmas = v;
   else if (key == "gyro_floor") c->min_gyro_noise_density = v;
   else if (key == "accel_floor") c->min_accel_noise_density = v;
   else if (key == "gyro_walk_floor") c->min_gyro_random_walk = v;

@@ -133,7 +133,11 @@ std::optional<NavState> SlidingWindowEstimator::Start(std::vector<InitFrame> fra
 }
 
 void SlidingWindowEstimator::AddObservations(const FrameFeatures& features) {
-  for (const auto& obs : features.features) landmarks_[obs.id].obs[features.t_ns] = obs;
+  for (const auto& obs : features.features) {
+    Landmark& lm = landmarks_[obs.id];
+    FeatureObservation& added = lm.obs[features.t_ns] = obs;
+    if (lm.left_only) added.has_right = false;
+  }
 }
 
 Eigen::Vector3d SlidingWindowEstimator::LandmarkWorld(const Landmark& lm) const {
@@ -249,6 +253,7 @@ EstimatorOutput SlidingWindowEstimator::AddFrame(const FrameFeatures& features,
   Frame* added = frame.get();
   window_.push_back(std::move(frame));
   AddObservations(features);
+  GateByPrediction(*added);
   // A non-keyframe leaves the window at the next frame: only its own state needs solving.
   const bool motion_only = !added->keyframe && config_.motion_only_non_keyframes;
   // A motion-only solve holds depths fixed: a depth triangulated from this frame's predicted

@@ -106,6 +106,34 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s, bool mo
   MD_LOG(kDebug, "vio solve: " << summary.BriefReport() << " " << summary.total_time_in_seconds << " s");
 }
 
+void SlidingWindowEstimator::GateByPrediction(const Frame& frame) {
+  int dropped = 0, forgotten = 0, checked = 0;
+  for (auto& [id, lm] : landmarks_) {
+    if (!lm.has_depth || lm.obs.size() < 2 || lm.obs.begin()->first == frame.t_ns) continue;
+    const auto it = lm.obs.find(frame.t_ns);
+    if (it == lm.obs.end()) continue;
+    const Frame* anchor = FindFrame(lm.obs.begin()->first);
+    double r[2];
+    ReprojectionFactor(lm.obs.begin()->second.left, it->second.left, cam0_, cam0_, weight_)(
+        anchor->pose, frame.pose, &lm.inv_depth, r);
+    ++checked;
+    if (std::hypot(r[0], r[1]) <= config_.prediction_gate_sigmas) continue;
+    if (lm.obs.size() > 2) {
+      lm.obs.erase(it);
+      ++dropped;
+    } else {
+      lm.has_depth = false;
+      lm.left_only = true;
+      for (auto& [t, o] : lm.obs) o.has_right = false;
+      ++forgotten;
+    }
+  }
+  if (dropped + forgotten > 0) {
+    MD_LOG(kDebug, "vio: of " << checked << " observations off the prediction: " << dropped
+                              << " dropped, " << forgotten << " landmark depths forgotten");
+  }
+}
+
 void SlidingWindowEstimator::RemoveOutliers() {
   int removed = 0;
   for (auto& [id, lm] : landmarks_) {

@@ -70,12 +70,20 @@ class SlidingWindowEstimator {
     std::map<int64_t, FeatureObservation> obs;  // by frame t_ns; first = anchor
     double inv_depth = 0;
     bool has_depth = false;
+    // Its stereo matches are not trusted (GateByPrediction): right observations are dropped
+    // and the depth comes from the left camera's motion parallax alone.
+    bool left_only = false;
   };
 
   Frame* FindFrame(int64_t t_ns) const;
   NavState StateOf(const Frame& f) const;
   void AddObservations(const FrameFeatures& features);
   void RemoveFrameObservations(int64_t t_ns);
+  // The frame's observations that contradict its (predicted) pose (prediction_gate_sigmas):
+  // of a landmark that other frames confirmed, the observation is dropped (the track jumped);
+  // of one only its anchor saw, the depth is forgotten and the landmark turns left_only (the
+  // anchor's stereo match is the suspect), to be triangulated again at the next keyframe.
+  void GateByPrediction(const Frame& frame);
   void Triangulate(Landmark* lm) const;
   bool IsKeyframe(const FrameFeatures& features) const;
   // motion_only: only the newest frame's pose and speed/bias move (non-keyframes).
