@@ -117,12 +117,11 @@ std::optional<NavState> SlidingWindowEstimator::Start(std::vector<InitFrame> fra
   Optimize(config_.init_solver_iterations, config_.init_solver_max_time_s);
   const NavState newest = StateOf(*window_.back());
   const double shift = prior.BiasShiftSigmas(newest);
-  MD_LOG(kDebug, "vio init: first solve moved the biases by " << shift << " sigmas (bg "
-                     << newest.bg.transpose() << ", ba " << newest.ba.transpose() << ")");
-  if (!(shift <= config_.init_max_bias_shift_sigmas)) {
-    MD_LOG(kInfo, "vio init rejected: the first solve moved the biases by " << shift
-                      << " sigmas (bg " << newest.bg.transpose() << " rad/s, ba "
-                      << newest.ba.transpose() << " m/s^2); initializing again");
+  const bool accepted = shift <= config_.init_max_bias_shift_sigmas;
+  MD_LOG(kInfo, "vio init " << (accepted ? "accepted" : "rejected") << ": the first solve moved the biases by "
+                            << shift << " sigmas (bg " << newest.bg.transpose() << " rad/s, ba "
+                            << newest.ba.transpose() << " m/s^2)" << (accepted ? "" : "; initializing again"));
+  if (!accepted) {
     window_.clear();
     landmarks_.clear();
     prior_.reset();
