@@ -195,7 +195,8 @@ class Backend {
       const double reloc_m = rc.relocalize_max_correction_m;
       const double reloc_rad = rc.relocalize_max_correction_deg * M_PI / 180.0;
       if (!started_) {
-        r = registrar_->RefineInitialPose(local, guess, 4.0, 0.26, up);  // the registrar's start-up limits
+        r = registrar_->RefineInitialPose(local, guess, PriorRegistrar::kStartupMaxGuessErrorM,
+                                          PriorRegistrar::kStartupMaxGuessErrorRad, up);
       } else if (reanchor) {
         r = registrar_->RefineAmongGuesses(local, ReanchorGuesses(k), reloc_m, reloc_rad, up);
       } else if (relocalize) {

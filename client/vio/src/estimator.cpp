@@ -45,14 +45,6 @@ struct StatePrior {
   }
 };
 
-// Reprojection error of the functor in pixels / sigma (the functors are scaled by weight).
-template <typename F>
-double ErrorSigmas(const F& f, const double* a, const double* b, const double* rho) {
-  double r[2];
-  f(a, b, rho, r);
-  return std::hypot(r[0], r[1]);
-}
-
 }  // namespace
 
 SlidingWindowEstimator::SlidingWindowEstimator(const VioConfig& config,
@@ -121,12 +113,7 @@ std::optional<NavState> SlidingWindowEstimator::Start(std::vector<InitFrame> fra
   MD_LOG(kInfo, "vio init " << (accepted ? "accepted" : "rejected") << ": the first solve moved the biases by "
                             << shift << " sigmas (bg " << newest.bg.transpose() << " rad/s, ba "
                             << newest.ba.transpose() << " m/s^2)" << (accepted ? "" : "; initializing again"));
-  if (!accepted) {
-    window_.clear();
-    landmarks_.clear();
-    prior_.reset();
-    return std::nullopt;
-  }
+  if (!accepted) return std::nullopt;
   while (static_cast<int>(window_.size()) > config_.window_keyframes) MarginalizeOldest();
   return newest;
 }
@@ -252,7 +239,7 @@ EstimatorOutput SlidingWindowEstimator::AddFrame(const FrameFeatures& features,
   Frame* added = frame.get();
   window_.push_back(std::move(frame));
   AddObservations(features);
-  GateByPrediction(*added);
+  GateByPrediction(*added, features);
   // A non-keyframe leaves the window at the next frame: only its own state needs solving.
   const bool motion_only = !added->keyframe && config_.motion_only_non_keyframes;
   // A motion-only solve holds depths fixed: a depth triangulated from this frame's predicted

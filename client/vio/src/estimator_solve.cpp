@@ -14,6 +14,15 @@ PoseManifold& SharedPoseManifold() {
   static PoseManifold manifold;
   return manifold;
 }
+
+// Reprojection error of a factor functor (anchor pose, frame pose, inverse depth) in sigmas:
+// the functors are scaled by weight_.
+template <typename F>
+double ErrorSigmas(const F& f, const double* anchor_pose, const double* pose, const double* inv_depth) {
+  double r[2];
+  f(anchor_pose, pose, inv_depth, r);
+  return std::hypot(r[0], r[1]);
+}
 }  // namespace
 
 void SlidingWindowEstimator::LandmarkFactors(Landmark* lm, FactorList* out) const {
@@ -106,20 +115,18 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s, bool mo
   MD_LOG(kDebug, "vio solve: " << summary.BriefReport() << " " << summary.total_time_in_seconds << " s");
 }
 
-void SlidingWindowEstimator::GateByPrediction(const Frame& frame) {
+void SlidingWindowEstimator::GateByPrediction(const Frame& frame, const FrameFeatures& features) {
   int dropped = 0, forgotten = 0, checked = 0;
-  for (auto& [id, lm] : landmarks_) {
+  for (const auto& observed : features.features) {
+    Landmark& lm = landmarks_.at(observed.id);
     if (!lm.has_depth || lm.obs.size() < 2 || lm.obs.begin()->first == frame.t_ns) continue;
-    const auto it = lm.obs.find(frame.t_ns);
-    if (it == lm.obs.end()) continue;
-    const Frame* anchor = FindFrame(lm.obs.begin()->first);
-    double r[2];
-    ReprojectionFactor(lm.obs.begin()->second.left, it->second.left, cam0_, cam0_, weight_)(
-        anchor->pose, frame.pose, &lm.inv_depth, r);
+    const auto& [t_anchor, a] = *lm.obs.begin();
+    const double error = ErrorSigmas(ReprojectionFactor(a.left, observed.left, cam0_, cam0_, weight_),
+                                     FindFrame(t_anchor)->pose, frame.pose, &lm.inv_depth);
     ++checked;
-    if (std::hypot(r[0], r[1]) <= config_.prediction_gate_sigmas) continue;
+    if (error <= config_.prediction_gate_sigmas) continue;
     if (lm.obs.size() > 2) {
-      lm.obs.erase(it);
+      lm.obs.erase(frame.t_ns);
       ++dropped;
     } else {
       lm.has_depth = false;
@@ -142,18 +149,16 @@ void SlidingWindowEstimator::RemoveOutliers() {
     const Frame* anchor = FindFrame(t_anchor);
     for (auto it = std::next(lm.obs.begin()); it != lm.obs.end();) {
       const Frame* f = FindFrame(it->first);
-      double r[2];
-      ReprojectionFactor(a.left, it->second.left, cam0_, cam0_, weight_)(anchor->pose, f->pose,
-                                                                          &lm.inv_depth, r);
-      if (std::hypot(r[0], r[1]) > config_.outlier_sigmas) {
+      if (ErrorSigmas(ReprojectionFactor(a.left, it->second.left, cam0_, cam0_, weight_), anchor->pose,
+                      f->pose, &lm.inv_depth) > config_.outlier_sigmas) {
         it = lm.obs.erase(it);
         ++removed;
         continue;
       }
-      if (it->second.has_right) {
-        ReprojectionFactor(a.left, it->second.right, cam0_, cam1_, weight_)(anchor->pose, f->pose,
-                                                                             &lm.inv_depth, r);
-        if (std::hypot(r[0], r[1]) > config_.outlier_sigmas) it->second.has_right = false;
+      if (it->second.has_right &&
+          ErrorSigmas(ReprojectionFactor(a.left, it->second.right, cam0_, cam1_, weight_), anchor->pose,
+                      f->pose, &lm.inv_depth) > config_.outlier_sigmas) {
+        it->second.has_right = false;
       }
       ++it;
     }

@@ -44,9 +44,11 @@ class PriorRegistrar {
   // Start-up: coarse-to-fine registration from a rough guess. The coarse pass uses a wide
   // correspondence radius so a guess off by several metres still finds its surfaces; the
   // result passes the normal fitness gate and a correction limit of max_guess_error_m/_rad.
+  static constexpr double kStartupMaxGuessErrorM = 4.0;
+  static constexpr double kStartupMaxGuessErrorRad = 0.26;
   RegistrationOutcome RefineInitialPose(const PointCloud& local_body, const SE3& guess_T_map_body,
-                                        double max_guess_error_m = 4.0,
-                                        double max_guess_error_rad = 0.26,
+                                        double max_guess_error_m = kStartupMaxGuessErrorM,
+                                        double max_guess_error_rad = kStartupMaxGuessErrorRad,
                                         const std::optional<Eigen::Vector3d>& odometry_up = std::nullopt);
 
   // Re-anchoring after an odometry reset: RefineInitialPose from each of several guesses

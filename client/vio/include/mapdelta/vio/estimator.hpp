@@ -48,8 +48,8 @@ class SlidingWindowEstimator {
   ~SlidingWindowEstimator();
   // Starts the window from an initialization; returns the newest frame's state after a first
   // joint visual-inertial solve (the linear alignment alone leaves degrees of tilt error), or
-  // nothing when that solve contradicts the alignment (init_max_bias_shift_sigmas): then the
-  // estimator is empty and the caller initializes again on later frames.
+  // nothing when that solve contradicts the alignment (init_max_bias_shift_sigmas): the caller
+  // then initializes again on later frames (Start clears the window first).
   std::optional<NavState> Start(std::vector<InitFrame> frames);
   EstimatorOutput AddFrame(const FrameFeatures& features, const ImuPreintegration& pre);
   // Keyframes that left the window (final estimates), oldest first; clears the list.
@@ -83,7 +83,7 @@ class SlidingWindowEstimator {
   // of a landmark that other frames confirmed, the observation is dropped (the track jumped);
   // of one only its anchor saw, the depth is forgotten and the landmark turns left_only (the
   // anchor's stereo match is the suspect), to be triangulated again at the next keyframe.
-  void GateByPrediction(const Frame& frame);
+  void GateByPrediction(const Frame& frame, const FrameFeatures& features);
   void Triangulate(Landmark* lm) const;
   bool IsKeyframe(const FrameFeatures& features) const;
   // motion_only: only the newest frame's pose and speed/bias move (non-keyframes).
