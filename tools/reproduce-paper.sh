@@ -117,6 +117,9 @@ started=$(date +%s)
 # The commit of the code at the start ('-dirty' with uncommitted changes), recorded in every run:
 # commits made while a reproduction runs do not change the binaries it uses.
 run_commit=$(git -C "$root" describe --always --dirty --abbrev=7 2>/dev/null || echo unknown)
+# The machine, also recorded in every run: a reproduction resumed on another machine mixes CPUs,
+# and the client's timings (and, through the VIO's solve-time cap, its estimates) depend on it.
+run_cpu=$(lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -1)
 operating_bound=${bounds%%,*}
 vio_point="th_f $thf_point m, free-ray bound $operating_bound px"
 # shellcheck source=repro/lib.sh
@@ -129,7 +132,7 @@ jq -n --arg preset "$preset" --arg sequences "$sequences" --arg noises "$noises"
   --argjson seed "$city_seed" --arg thf "$thf_list" --arg bounds "$bounds" --argjson thf_point "$thf_point" \
   --arg crowd "$crowd" --arg crowd_preset "$crowd_preset" --arg crowd_seq "$crowd_seq" --arg crowd_noise "$crowd_noise" \
   --arg commit "$run_commit" \
-  --arg started "$(date -u +%Y-%m-%dT%H:%M:%SZ)" --arg cpu "$(lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -1)" \
+  --arg started "$(date -u +%Y-%m-%dT%H:%M:%SZ)" --arg cpu "$run_cpu" \
   --argjson nproc "$(nproc)" --arg load "$(cut -d' ' -f1-3 /proc/loadavg)" \
   '{preset: $preset, sequences: ($sequences | split(",")), noises: ($noises | split(",")), trials: $trials,
     sweep_trials: $sweep_trials,
@@ -190,7 +193,8 @@ crowd_file=$out/crowd/crowd.json times_file=$out/dataset_times.jsonl
 { if [ -d "$out/runs" ]; then find "$out/runs" -name run.json | sort | xargs -r cat; fi; } |
   jq -s --slurpfile p "$out/params.json" --slurpfile crowd "$crowd_file" --slurpfile times "$times_file" \
     --arg finished "$(date -u +%Y-%m-%dT%H:%M:%SZ)" --arg load "$(cut -d' ' -f1-3 /proc/loadavg)" \
-    '$p[0] + {finished: $finished, loadavg_at_end: $load, runs: ., crowd: ($crowd[0] // null), dataset_times: $times}' \
+    '$p[0] + {finished: $finished, loadavg_at_end: $load, crowd: ($crowd[0] // null), dataset_times: $times,
+              runs: map(.machine //= ($p[0].machine | {cpu, nproc}))}' \
     >"$out/results.json"
 bash "$root/tools/repro/report.sh" "$out/results.json" "$out"
 say "done: $out/report.md, $out/results.json, $out/plots/"

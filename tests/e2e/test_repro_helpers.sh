@@ -5,7 +5,9 @@
 #  - repro/crowd.sh merge_keyframes: stamps of session i shifted by i*1000 s, depth renamed.
 #  - repro/report.sh: Table III means over trials beside the paper's values, the th_f table per
 #    noise level and the PNGs.
-#  - repro/restore.sh: the runs of a results.json come back as OUT/runs/SEQ-NOISE-tK/run.json.
+#  - repro/report.sh: runs and timings by machine, dataset times per sequence.
+#  - repro/restore.sh: the runs of a results.json come back as OUT/runs/SEQ-NOISE-tK/run.json,
+#    each with its machine.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 tools=$here/../../tools
@@ -57,14 +59,16 @@ merge_keyframes "$tmp/merged" "$kf" "$tmp/kfv"
 cat >"$tmp/results.json" <<'EOJ'
 {"preset":"tiny","sequences":["S1_01"],"noises":["small"],"trials":2,"city_seed":1,"th_f_m":[10,20],
  "free_ray_bounds_px":[128],"th_f_point_m":20,"commit":"abc","started":"s","finished":"f","loadavg_at_end":"1 1 1",
- "machine":{"cpu":"cpu","nproc":2,"loadavg_at_start":"1 1 1"},"crowd":null,"dataset_times":[],
+ "machine":{"cpu":"cpu","nproc":2,"loadavg_at_start":"1 1 1"},"crowd":null,
+ "dataset_times":[{"preset":"tiny","sequence":"S1_01","render_s":10},{"preset":"tiny","sequence":"S1_01","render_s":20.4},
+                  {"preset":"tiny","sequence":"S1_01","noise":"small","seed":2,"renoise_s":5}],
  "runs":[
   {"sequence":"S1_01","noise":"small","trial":1,"ate_vio":{"rmse":0.4,"std":0.1,"max":0.8},"ate_fused":{"rmse":0.1,"std":0.05,"max":0.2},
    "client_timing":{"stages":[{"stage":"odometry","seconds":10,"calls":100,"ms_per_call":100}],"wall_s":12,"frames":100,"keyframes":10},
    "sweep":[{"free_ray_bound_px":128,"th_f_m":10,"detect_s":2,"paper":{"R_new":0.9,"P_new":0.8,"R_rm":0.7,"P_rm":0.6}},
             {"free_ray_bound_px":128,"th_f_m":20,"detect_s":4,"paper":{"R_new":1.0,"P_new":0.8,"R_rm":0.7,"P_rm":0.4}}],
    "vio_pose_changes":{"paper":{"R_new":0.5,"P_new":0.5,"R_rm":0.5,"P_rm":0.5}},"vio_pose_params":"th_f 20 m"},
-  {"sequence":"S1_01","noise":"small","trial":2,"ate_vio":{"rmse":0.6,"std":0.3,"max":1.0},"ate_fused":{"rmse":0.3,"std":0.15,"max":0.4},
+  {"sequence":"S1_01","noise":"small","trial":2,"machine":{"cpu":"other","nproc":2},"ate_vio":{"rmse":0.6,"std":0.3,"max":1.0},"ate_fused":{"rmse":0.3,"std":0.15,"max":0.4},
    "client_timing":{"stages":[{"stage":"odometry","seconds":20,"calls":100,"ms_per_call":200}],"wall_s":22,"frames":100,"keyframes":10},
    "sweep":[{"free_ray_bound_px":128,"th_f_m":10,"detect_s":2,"paper":{"R_new":0.7,"P_new":0.6,"R_rm":0.5,"P_rm":0.4}},
             {"free_ray_bound_px":128,"th_f_m":20,"detect_s":4,"paper":{"R_new":0.8,"P_new":0.6,"R_rm":0.5,"P_rm":0.2}}],
@@ -79,14 +83,20 @@ grep -qF 'Free-ray bound 128 px (the server'"'"'s default: a pixel without depth
   fail "th_f table heading per noise level"
 grep -qF '| S1_01 | small | VIO only | 0.400 | 0.400 | 0.400 | 0.400 |' "$md" || fail "Fig. 6 VIO row"
 grep -qF '| odometry | 150.0 | 100 | 15.0 |' "$md" || fail "timing row"
+# Trial 1 has no machine (recorded before runs carried one), trial 2 ran on "other".
+grep -qF 'Runs by machine: other (1), unrecorded (1).' "$md" || fail "runs by machine"
+grep -qF 'By machine: other: client 22 s per run, mapdelta-detect 3 s per call (1 runs); unrecorded: client 12 s per run' "$md" ||
+  fail "timings by machine"
+grep -qF 'Datasets made by this run (wall time): tiny/S1_01 render 15 s (mean of 2), renoise 5 s.' "$md" || fail "dataset times"
 for p in thf_b128 fig6; do [ -s "$tmp/report/plots/$p.png" ] || fail "plot $p.png missing"; done
-# restore.sh: the two runs come back under their names, identical to the record; a second call
-# keeps them; a file that is not a results.json is refused.
+# restore.sh: the two runs come back under their names, identical to the record but for the
+# machine, which a run without one takes from the record; a second call keeps them; a file that
+# is not a results.json is refused.
 bash "$tools/repro/restore.sh" "$tmp/results.json" "$tmp/restored" 2>/dev/null
-for k in 1 2; do
-  jq -e --slurpfile r "$tmp/results.json" --argjson k "$k" '. == ($r[0].runs[] | select(.trial == $k))' \
-    "$tmp/restored/runs/S1_01-small-t$k/run.json" >/dev/null || fail "restored run.json of trial $k"
-done
+jq -e --slurpfile r "$tmp/results.json" '. == ($r[0].runs[0] + {machine: {cpu: "cpu", nproc: 2}})' \
+  "$tmp/restored/runs/S1_01-small-t1/run.json" >/dev/null || fail "restored run.json of trial 1 (machine from the record)"
+jq -e --slurpfile r "$tmp/results.json" '. == $r[0].runs[1]' \
+  "$tmp/restored/runs/S1_01-small-t2/run.json" >/dev/null || fail "restored run.json of trial 2 (its own machine)"
 bash "$tools/repro/restore.sh" "$tmp/results.json" "$tmp/restored" 2>&1 | grep -q '0 run(s) restored' || fail "restore twice"
 if bash "$tools/repro/restore.sh" "$md" "$tmp/restored2" 2>/dev/null; then fail "restore accepted a Markdown file"; fi
 echo "repro helpers: all checks passed"

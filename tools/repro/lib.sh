@@ -1,5 +1,5 @@
 # Functions of tools/reproduce-paper.sh (sourced; uses its variables: bin_*, data, out, preset,
-# city_seed, nice_cmd, log, run_commit). Every step skips work whose output is already complete,
+# city_seed, nice_cmd, log, run_commit, run_cpu). Every step skips work whose output is already complete,
 # so an interrupted reproduction resumes where it stopped.
 
 say() { printf '==> [%s %4ds] %s\n' "$(date -u +%H:%M:%S)" $(($(date +%s) - started)) "$*" >&2; }
@@ -125,7 +125,7 @@ detect_and_eval() {
 }
 
 # run_json RUN_DIR SEQ NOISE TRIAL FULL_SWEEP(true|false) -> one run's JSON record (with the
-# commit that made it: a reproduction resumed in another session may mix commits).
+# commit and machine that made it: a reproduction resumed in another session may mix both).
 run_json() {
   local run=$1 seq=$2 noise=$3 k=$4
   local sweep="[]" d
@@ -143,8 +143,8 @@ run_json() {
     --slurpfile av "$run/ate_vio.json" --slurpfile af "$run/ate_fused.json" \
     --argjson timing "$(timing_json "$run/client")" --argjson sweep "$sweep" --argjson vio "$vio" \
     --arg vio_params "$vio_point" --argjson full_sweep "$5" \
-    --arg commit "$run_commit" \
-    '{sequence: $seq, noise: $noise, trial: $k, commit: $commit, full_sweep: $full_sweep,
+    --arg commit "$run_commit" --arg cpu "$run_cpu" --argjson nproc "$(nproc)" \
+    '{sequence: $seq, noise: $noise, trial: $k, commit: $commit, machine: {cpu: $cpu, nproc: $nproc}, full_sweep: $full_sweep,
       ate_vio: ($av[0] | {rmse, std, max, mean, pairs}), ate_fused: ($af[0] | {rmse, std, max, mean, pairs}),
       client_timing: $timing, sweep: $sweep, vio_pose_changes: $vio, vio_pose_params: $vio_params} + $resets[0]'
 }

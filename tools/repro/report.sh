@@ -27,6 +27,8 @@ paper_rmse() {
   # A run resumed over several sessions may hold runs made by different commits: say which.
   J '[.runs[] | .commit // "unrecorded"] | group_by(.) | if length > 1 then
        "\nRuns by commit: " + (map("`\(.[0])` (\(length))") | join(", ")) + "." else empty end'
+  J '[.runs[] | .machine.cpu // "unrecorded"] | group_by(.) | if length > 1 then
+       "\nRuns by machine: " + (map("\(.[0]) (\(length))") | join(", ")) + ". The client'"'"'s timings differ between them (see Processing time)." else empty end'
   J 'if (.sweep_trials // .trials) < .trials then
        "\nThe th_f sweep (Fig. 4 analogue, per-sequence table) covers trials 1..\(.sweep_trials); every trial has the operating point (Table III, Fig. 6)." else empty end'
   echo
@@ -164,13 +166,21 @@ EOG
       printf '| %s | %.1f | %.0f | %.1f |\n' "$s" "$a" "$b" "$c"
     done
   J '.runs | if length > 0 then "\nClient wall time per run: \(map(.client_timing.wall_s) | add / length | . * 10 | round / 10) s for \(map(.client_timing.frames) | add / length | round) frames, \(map(.client_timing.keyframes) | add / length | round) keyframes (mean); offline change detection (mapdelta-detect) \(map(.sweep[].detect_s) | add / length | . * 10 | round / 10) s per call." else empty end'
+  J '.runs | group_by(.machine.cpu // "unrecorded") | if length > 1 then
+       "\nBy machine: " + (map("\(.[0].machine.cpu // "unrecorded"): client \(map(.client_timing.wall_s) | add / length | . * 10 | round / 10) s per run, mapdelta-detect \(map(.sweep[].detect_s) | add / length | . * 10 | round / 10) s per call (\(length) runs)") | join("; ")) + "."
+     else empty end'
   J 'if (.crowd // null) != null then "\nServer commit jobs (crowd experiment, \(.crowd.preset) \(.crowd.sequence)): " +
        ([.crowd.commit_jobs[] | select(.started_at != null and .finished_at != null) |
          ((.finished_at | sub("\\.[0-9]+"; "") | fromdateiso8601) - (.started_at | sub("\\.[0-9]+"; "") | fromdateiso8601))] |
         if length > 0 then "\(length) jobs, \(add / length | . * 10 | round / 10) s mean, \(max) s max (1 s resolution)." else "no finished jobs." end)
      else empty end'
-  J 'if (.dataset_times | length) > 0 then "\nDatasets made by this run: " +
-       ([.dataset_times[] | if .render_s then "render \(.preset)/\(.sequence) \(.render_s) s" else "renoise \(.preset)/\(.sequence) (\(.noise), seed \(.seed)) \(.renoise_s) s" end] | join("; ")) + " (wall time)."
+  # Per sequence: a resumed reproduction renders again on every new machine and renoises per trial.
+  J 'def s(f): map(f) | "\(add / length | round) s" + (if length > 1 then " (mean of \(length))" else "" end);
+     if (.dataset_times | length) > 0 then "\nDatasets made by this run (wall time): " +
+       (.dataset_times | group_by([.preset, .sequence]) | map(
+          (map(select(.render_s)) as $r | map(select(.renoise_s)) as $n |
+           "\(.[0].preset)/\(.[0].sequence) " + ([if ($r | length) > 0 then "render \($r | s(.render_s))" else empty end,
+                                                 if ($n | length) > 0 then "renoise \($n | s(.renoise_s))" else empty end] | join(", ")))) | join("; ")) + "."
      else empty end'
   if J '.crowd != null' | grep -q true; then
     echo

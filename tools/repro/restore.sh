@@ -18,7 +18,9 @@ while IFS=$'\t' read -r name i; do
     continue
   fi
   mkdir -p "$out/runs/$name"
-  jq ".runs[$i]" "$res" >"$out/runs/$name/run.json"
+  # Runs recorded before runs carried their machine ran on the record's machine.
+  jq --argjson i "$i" '.machine as $m | .runs[$i] | if .machine == null and $m != null then .machine = ($m | {cpu, nproc}) else . end' "$res" \
+    >"$out/runs/$name/run.json"
   n=$((n + 1))
 done < <(jq -r '.runs | to_entries[] | "\(.value.sequence)-\(.value.noise)-t\(.value.trial)\t\(.key)"' "$res")
 if jq -e '.crowd != null' "$res" >/dev/null && [ ! -f "$out/crowd/crowd.json" ]; then
