@@ -114,9 +114,11 @@ command -v jq >/dev/null || { echo "reproduce-paper: jq is missing (deploy/insta
 command -v gnuplot >/dev/null || { echo "reproduce-paper: gnuplot is missing (deploy/install-deps.sh)" >&2; exit 1; }
 "$bin_sim" renoise --help >/dev/null 2>&1 || { echo "reproduce-paper: $bin_sim has no 'renoise' (rebuild mapdelta-sim)" >&2; exit 1; }
 started=$(date +%s)
-# The commit of the code at the start ('-dirty' with uncommitted changes), recorded in every run:
-# commits made while a reproduction runs do not change the binaries it uses.
-run_commit=$(git -C "$root" describe --always --dirty --abbrev=7 2>/dev/null || echo unknown)
+# The commit of the binaries' source at the start ('-dirty' with uncommitted changes), recorded
+# in every run: the tree --build-dir was configured from (a worktree at an older commit, say),
+# else this checkout. Commits made while a reproduction runs do not change the binaries it uses.
+bin_src=$(sed -n 's/^CMAKE_HOME_DIRECTORY:INTERNAL=//p' "$build_dir/CMakeCache.txt" 2>/dev/null || true)
+run_commit=$(git -C "${bin_src:-$root}" describe --always --dirty --abbrev=7 2>/dev/null || echo unknown)
 # The machine, also recorded in every run: a reproduction resumed on another machine mixes CPUs,
 # and the client's timings (and, through the VIO's solve-time cap, its estimates) depend on it.
 run_cpu=$(lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -1)
@@ -193,8 +195,7 @@ crowd_file=$out/crowd/crowd.json times_file=$out/dataset_times.jsonl
 { if [ -d "$out/runs" ]; then find "$out/runs" -name run.json | sort | xargs -r cat; fi; } |
   jq -s --slurpfile p "$out/params.json" --slurpfile crowd "$crowd_file" --slurpfile times "$times_file" \
     --arg finished "$(date -u +%Y-%m-%dT%H:%M:%SZ)" --arg load "$(cut -d' ' -f1-3 /proc/loadavg)" \
-    '$p[0] + {finished: $finished, loadavg_at_end: $load, crowd: ($crowd[0] // null), dataset_times: $times,
-              runs: map(.machine //= ($p[0].machine | {cpu, nproc}))}' \
+    '$p[0] + {finished: $finished, loadavg_at_end: $load, runs: ., crowd: ($crowd[0] // null), dataset_times: $times}' \
     >"$out/results.json"
 bash "$root/tools/repro/report.sh" "$out/results.json" "$out"
 say "done: $out/report.md, $out/results.json, $out/plots/"
