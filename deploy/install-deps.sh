@@ -10,6 +10,9 @@ packages=(
   libnanoflann-dev libembree-dev libgtest-dev libgmock-dev libbenchmark-dev
   curl jq gnuplot-nox
 )
+# PostgreSQL backend (storage.backend: postgres): libpq to build, and the server binaries
+# (initdb, postgres) that the tests start in a temp folder for each test process.
+packages+=(libpq-dev postgresql)
 # Web map (web/, tools/build-web.sh) and its browser test (tests/web): Debian's Chromium, and
 # Node.js with npm unless a node with npm is already there (NodeSource's nodejs bundles npm and
 # conflicts with Debian's npm package). Vite 7 needs Node >= 20.19.
