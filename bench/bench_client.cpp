@@ -57,8 +57,9 @@ Row Run(const std::string& name, const std::string& sequence_dir, const std::str
   using namespace mapdelta;
   using namespace mapdelta::client;
   const ClientConfig config;
-  const EurocSequence seq = ReadEurocSequence(sequence_dir);
-  VioOdometrySource odometry(seq);
+  const StereoInput input(ReadEurocSequence(sequence_dir));
+  const EurocSequence& seq = input.sequence();
+  VioOdometrySource odometry(input);
   std::unique_ptr<PriorSource> prior;
   if (!prior_path.empty()) prior = std::make_unique<FilePriorSource>(prior_path, config.registration.prior_voxel_m);
   PipelineInputs in;

@@ -15,6 +15,7 @@
 #include "mapdelta/client/pipeline.hpp"
 #include "mapdelta/client/prior_source.hpp"
 #include "mapdelta/client/registration_report.hpp"
+#include "mapdelta/client/stereo_input.hpp"
 #include "mapdelta/client/uploader.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
@@ -135,11 +136,11 @@ int RunPipeline(int argc, char** argv) {
   MD_LOG(kInfo, "effective configuration written to " << out << "/config.yaml");
 
   std::unique_ptr<OdometrySource> odometry;
-  std::unique_ptr<EurocSequence> vio_sequence;  // the VIO reads it while the pipeline runs
+  std::unique_ptr<StereoInput> vio_input;  // the VIO reads it while the pipeline runs
   if (args.Get("odometry") == "vio") {
 #ifdef MAPDELTA_CLIENT_HAS_VIO
-    vio_sequence = std::make_unique<EurocSequence>(ReadEurocSequence(args.Get("sequence")));
-    odometry = std::make_unique<VioOdometrySource>(*vio_sequence);
+    vio_input = std::make_unique<StereoInput>(ReadEurocSequence(args.Get("sequence")));
+    odometry = std::make_unique<VioOdometrySource>(*vio_input);
 #else
     throw Error(ErrorCode::kUnsupported, "--odometry vio: this build has no VIO (client/vio)");
 #endif
@@ -186,8 +187,10 @@ int RunPipeline(int argc, char** argv) {
   std::thread upload_thread;
   if (transport && !args.Has("no-upload")) {
     queue = std::make_unique<UploadQueue>(out + "/keyframes.upload_queue");
-    const EurocSequence seq = ReadEurocSequence(in.sequence_dir);
-    uploader = std::make_unique<Uploader>(config.upload, KeyframeCamera(config, MakeRectifiedStereoRig(seq).left), queue.get(), transport.get());
+    // The keyframes' camera: the rectified one when the recorded pair is not (StereoInput).
+    const StereoInput input(ReadEurocSequence(in.sequence_dir));
+    uploader = std::make_unique<Uploader>(config.upload, KeyframeCamera(config, input.rig().left),
+                                          queue.get(), transport.get());
     in.uploader = uploader.get();
     upload_thread = std::thread([&] {
       upload_report = uploader->Run(stop);

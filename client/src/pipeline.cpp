@@ -5,13 +5,14 @@
 #include <exception>
 #include <thread>
 
-#include "mapdelta/common/bounded_queue.hpp"
 #include "mapdelta/client/image.hpp"
 #include "mapdelta/client/local_cloud.hpp"
 #include "mapdelta/client/pose_fusion.hpp"
 #include "mapdelta/client/prior_registration.hpp"
 #include "mapdelta/client/stereo_depth.hpp"
+#include "mapdelta/client/stereo_input.hpp"
 #include "mapdelta/client/temporal_filter.hpp"
+#include "mapdelta/common/bounded_queue.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/keyframes.hpp"
@@ -346,8 +347,10 @@ PinholeCamera KeyframeCamera(const ClientConfig& config, const PinholeCamera& le
 PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in) {
   if (in.odometry == nullptr) throw Error(ErrorCode::kInvalidArgument, "pipeline needs an odometry source");
   const auto wall_start = std::chrono::steady_clock::now();
-  const EurocSequence seq = ReadEurocSequence(in.sequence_dir);
-  const StereoRig rig = MakeRectifiedStereoRig(seq);
+  // Rectified once on input (distorted EuRoC pairs) for every stage below.
+  const StereoInput input(ReadEurocSequence(in.sequence_dir));
+  const EurocSequence& seq = input.sequence();
+  const StereoRig& rig = input.rig();
   auto frames = seq.StereoFrames();
   if (in.max_frames > 0 && frames.size() > static_cast<size_t>(in.max_frames)) frames.resize(in.max_frames);
   if (frames.empty()) throw Error(ErrorCode::kNotFound, in.sequence_dir + ": no stereo frames");
@@ -369,7 +372,7 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
     stage_decode = std::thread([&] {
       try {
         for (const auto& frame : frames) {
-          DecodedFrame d{&frame, ReadGrayImage(frame.left_path), ReadGrayImage(frame.right_path)};
+          DecodedFrame d{&frame, input.ReadLeft(frame), input.ReadRight(frame)};
           {
             StageTimer::Scope t(&timer, "0 odometry front end");
             in.odometry->PrepareFrame(frame.t_ns, StereoImages{d.left, d.right});
@@ -438,8 +441,8 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
       const StereoDepth stereo(config.stereo);
       while (auto kf = keyframe_queue.Pop()) {
         KeyframeDepth out{kf->frame->t_ns, kf->odom, {}};
-        if (kf->left.pixels.empty()) kf->left = ReadGrayImage(kf->frame->left_path);
-        if (kf->right.pixels.empty()) kf->right = ReadGrayImage(kf->frame->right_path);
+        if (kf->left.pixels.empty()) kf->left = input.ReadLeft(*kf->frame);
+        if (kf->right.pixels.empty()) kf->right = input.ReadRight(*kf->frame);
         {
           StageTimer::Scope t(&timer, "1 stereo depth");
           out.raw = stereo.ComputeDepth(kf->left, kf->right, rig);

@@ -11,7 +11,7 @@
 namespace mapdelta::client {
 
 struct VioOdometrySource::Impl {
-  const EurocSequence* sequence = nullptr;
+  const StereoInput* input = nullptr;
   std::unique_ptr<vio::StereoInertialOdometry> vio;
   std::map<int64_t, StereoFrameFiles> frames;
   size_t next_imu = 0;
@@ -33,8 +33,9 @@ struct VioOdometrySource::Impl {
   }
 };
 
-VioOdometrySource::VioOdometrySource(const EurocSequence& sequence) : impl_(std::make_unique<Impl>()) {
-  impl_->sequence = &sequence;
+VioOdometrySource::VioOdometrySource(const StereoInput& input) : impl_(std::make_unique<Impl>()) {
+  impl_->input = &input;
+  const EurocSequence& sequence = input.sequence();
   vio::VioConfig config;
   // The fusion's odometry factors use the configured sigmas (client/README.md, known limits):
   // the VIO's per-keyframe relative covariance (a Schur complement of the whole window, ~5 % of
@@ -52,7 +53,7 @@ std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns, const StereoIm
   const auto it = impl_->frames.find(t_ns);
   if (it == impl_->frames.end()) return std::nullopt;
   // IMU up to and one past the frame time, as the VIO's API asks.
-  const auto& imu = impl_->sequence->imu_samples;
+  const auto& imu = impl_->input->sequence().imu_samples;
   while (impl_->next_imu < imu.size()) {
     const bool past = imu[impl_->next_imu].t_ns > t_ns;
     impl_->vio->AddImu(imu[impl_->next_imu++]);
@@ -63,8 +64,8 @@ std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns, const StereoIm
     if (images != nullptr) {
       tracked = impl_->vio->TrackFrame(t_ns, Impl::View(images->left), Impl::View(images->right));
     } else {
-      const GrayImage left = ReadGrayImage(it->second.left_path);
-      const GrayImage right = ReadGrayImage(it->second.right_path);
+      const GrayImage left = impl_->input->ReadLeft(it->second);
+      const GrayImage right = impl_->input->ReadRight(it->second);
       tracked = impl_->vio->TrackFrame(t_ns, Impl::View(left), Impl::View(right));
     }
   }

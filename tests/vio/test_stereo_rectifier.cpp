@@ -15,8 +15,8 @@
 #include <cmath>
 
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/stereo_rectifier.hpp"
 #include "mapdelta/sim/sensor_rig.hpp"
-#include "mapdelta/vio/stereo_rectifier.hpp"
 
 using namespace mapdelta;
 
@@ -70,9 +70,9 @@ double TextureAlongRay(const SE3& T_body_cam, const Eigen::Vector3d& ray_cam) {
 
 TEST(StereoRectifier, RectifiedCamerasFormAnIdealPair) {
   Fixture f;
-  ASSERT_FALSE(vio::IsRectifiedPair(f.cam0, f.cam1));
-  const vio::StereoRectifier r(f.cam0, f.cam1);
-  EXPECT_TRUE(vio::IsRectifiedPair(r.cam0(), r.cam1()));
+  ASSERT_FALSE(IsRectifiedPair(f.cam0, f.cam1));
+  const StereoRectifier r(f.cam0, f.cam1);
+  EXPECT_TRUE(IsRectifiedPair(r.cam0(), r.cam1()));
   EXPECT_FALSE(r.cam0().HasDistortion());
   EXPECT_DOUBLE_EQ(r.cam0().intrinsics.fx, r.cam1().intrinsics.fx);
   EXPECT_DOUBLE_EQ(r.cam0().intrinsics.cx, r.cam1().intrinsics.cx);
@@ -91,7 +91,7 @@ TEST(StereoRectifier, RectifiedCamerasFormAnIdealPair) {
 
 TEST(StereoRectifier, TablesAgreeWithDistortedProjectionAndRowsMatch) {
   Fixture f;
-  const vio::StereoRectifier r(f.cam0, f.cam1);
+  const StereoRectifier r(f.cam0, f.cam1);
   const PinholeCamera& k = r.cam0().intrinsics;
   const double disparity_per_inv_depth = k.fx * r.baseline_m();
   double worst_left = 0, worst_right = 0, worst_row = 0;
@@ -122,7 +122,7 @@ TEST(StereoRectifier, TablesAgreeWithDistortedProjectionAndRowsMatch) {
 
 TEST(StereoRectifier, RectifiedImagesMatchDirectPinholeRendering) {
   Fixture f;
-  const vio::StereoRectifier r(f.cam0, f.cam1);
+  const StereoRectifier r(f.cam0, f.cam1);
   const EurocCamera* inputs[2] = {&f.cam0, &f.cam1};
   const EurocCamera* rects[2] = {&r.cam0(), &r.cam1()};
   for (int i = 0; i < 2; ++i) {
@@ -162,14 +162,14 @@ TEST(StereoRectifier, RectifiedImagesMatchDirectPinholeRendering) {
 
 TEST(StereoRectifier, RejectsWhatItCannotRectify) {
   Fixture f;
-  EXPECT_EQ(vio::MakeRectifierIfNeeded(f.cam0, f.cam1) == nullptr, false);
+  EXPECT_EQ(MakeRectifierIfNeeded(f.cam0, f.cam1) == nullptr, false);
   // An already rectified pair needs nothing.
-  const vio::StereoRectifier r(f.cam0, f.cam1);
-  EXPECT_EQ(vio::MakeRectifierIfNeeded(r.cam0(), r.cam1()), nullptr);
+  const StereoRectifier r(f.cam0, f.cam1);
+  EXPECT_EQ(MakeRectifierIfNeeded(r.cam0(), r.cam1()), nullptr);
   EurocCamera fisheye = f.cam0;
   fisheye.distortion_model = "equidistant";
   try {
-    vio::StereoRectifier bad(fisheye, f.cam1);
+    StereoRectifier bad(fisheye, f.cam1);
     FAIL() << "equidistant accepted";
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::kUnsupported);
@@ -178,7 +178,7 @@ TEST(StereoRectifier, RejectsWhatItCannotRectify) {
   // cam1 above cam0: not a horizontal pair.
   EurocCamera above = f.cam1;
   above.T_body_cam.translation() = f.cam0.T_body_cam * Eigen::Vector3d(0, -0.1, 0);
-  EXPECT_THROW(vio::StereoRectifier(f.cam0, above), Error);
+  EXPECT_THROW(StereoRectifier(f.cam0, above), Error);
   cv::Mat small(10, 10, CV_8UC1, cv::Scalar(0)), out;
   EXPECT_THROW(r.Rectify(0, small, &out), Error);
 }

@@ -16,12 +16,12 @@
 #include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
+#include "mapdelta/common/stereo_rectifier.hpp"
 #include "mapdelta/sim/config.hpp"
 #include "mapdelta/sim/generator.hpp"
 #include "mapdelta/sim/sensor_rig.hpp"
 #include "mapdelta/vio/feature_tracker.hpp"
 #include "mapdelta/vio/run_sequence.hpp"
-#include "mapdelta/vio/stereo_rectifier.hpp"
 #include "support/temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -54,7 +54,7 @@ EurocSequence Generate() {
 // pixel the rectifier samples) to a fraction of a pixel.
 void CheckStereoMatches(const EurocSequence& seq) {
   ASSERT_EQ(seq.depth0_images.size(), seq.cam0_images.size());
-  const vio::StereoRectifier rect(seq.cam0, seq.cam1);
+  const StereoRectifier rect(seq.cam0, seq.cam1);
   const sim::RadTan lens{seq.cam0.distortion[0], seq.cam0.distortion[1], seq.cam0.distortion[2],
                          seq.cam0.distortion[3]};
   const SE3 T_rect0_cam0 = rect.cam0().T_body_cam.inverse() * seq.cam0.T_body_cam;

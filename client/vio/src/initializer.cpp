@@ -1,6 +1,7 @@
 #include "mapdelta/vio/initializer.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -9,6 +10,7 @@
 #include <unordered_map>
 
 #include "mapdelta/common/log.hpp"
+#include "mapdelta/vio/rest_detector.hpp"
 
 namespace mapdelta::vio {
 
@@ -41,6 +43,13 @@ std::optional<std::vector<InitFrame>> Initializer::AddFrame(const FrameFeatures&
     }
   }
   frames_.push_back(std::move(frame));
+  if (config_.static_init.enabled) {
+    if (auto at_rest = StartAtRest()) {
+      frames_.clear();
+      anchor_ = 0;
+      return at_rest;
+    }
+  }
   const double span_s = 1e-9 * static_cast<double>(features.t_ns - frames_.front().features.t_ns);
   if (static_cast<int>(frames_.size()) < config_.init_frames || span_s < config_.init_min_span_s) {
     return std::nullopt;
@@ -194,6 +203,60 @@ bool Initializer::Align(std::vector<InitFrame>* frames_ptr) const {
                                            << " speed=" << frames.back().state.v_world.norm()
                                            << " fit_rms=" << rms);
   return true;
+}
+
+std::optional<std::vector<InitFrame>> Initializer::StartAtRest() const {
+  const StaticInitConfig& c = config_.static_init;
+  // 1. The newest frames spanning the rest window.
+  const int64_t t_now = frames_.back().features.t_ns;
+  const auto window_ns = static_cast<int64_t>(std::llround(c.window_s * 1e9));
+  size_t first = frames_.size() - 1;
+  while (first > 0 && t_now - frames_[first].features.t_ns < window_ns) --first;
+  if (t_now - frames_[first].features.t_ns < window_ns) return std::nullopt;
+  // 2. Their IMU samples look like rest.
+  std::vector<ImuSample> samples;
+  for (size_t k = first + 1; k < frames_.size(); ++k) {
+    const auto& s = frames_[k].pre.samples();
+    samples.insert(samples.end(), s.begin(), s.end());
+  }
+  const RestCheck rest = CheckImuRest(samples, c, config_.gravity);
+  if (!rest.at_rest) {
+    MD_LOG(kDebug, "vio init: not at rest at t_ns=" << t_now << ": " << rest.reason);
+    return std::nullopt;
+  }
+  // 3. Vision agrees: no frame of the window moved from the window's first (a vehicle at
+  //    constant speed reads like rest to the IMU).
+  const SE3& T_w_first = frames_[first].state.T_world_body;
+  for (size_t k = first + 1; k < frames_.size(); ++k) {
+    const SE3& T_w_k = frames_[k].state.T_world_body;
+    const double moved_m = (T_w_k.translation() - T_w_first.translation()).norm();
+    const double turned_deg = RotationAngle(T_w_first, T_w_k) * 180.0 / M_PI;
+    if (moved_m > c.max_translation_m || turned_deg > c.max_rotation_deg) {
+      MD_LOG(kDebug, "vio init: the IMU reads rest but the cameras moved " << moved_m << " m, "
+                                                                           << turned_deg << " deg");
+      return std::nullopt;
+    }
+  }
+  // 4. Zero velocity, gravity opposite to the mean specific force, yaw of the first frame.
+  const Eigen::Vector3d gravity_body = -rest.stats.accel_mean;
+  SE3 T_world_body = SE3::Identity();
+  T_world_body.linear() =
+      Eigen::Quaterniond::FromTwoVectors(gravity_body, -Eigen::Vector3d::UnitZ())
+          .toRotationMatrix();
+  std::vector<InitFrame> out(frames_.begin() + static_cast<std::ptrdiff_t>(first), frames_.end());
+  for (size_t k = 0; k < out.size(); ++k) {
+    InitFrame& f = out[k];
+    f.state = NavState{};
+    f.state.T_world_body = T_world_body;
+    f.state.bg = rest.stats.gyro_mean;
+    if (k > 0) f.pre.Reintegrate(f.state.bg, Eigen::Vector3d::Zero());
+  }
+  MD_LOG(kInfo, "vio initialized at rest at t_ns="
+                    << t_now << " (" << out.size() << " frames, " << rest.stats.samples
+                    << " IMU samples): |a|=" << rest.stats.accel_mean.norm()
+                    << " bg=" << rest.stats.gyro_mean.transpose() << " spread "
+                    << rest.stats.gyro_std << " rad/s, " << rest.stats.accel_std << " m/s^2");
+  return out;
 }
 
 }  // namespace mapdelta::vio

@@ -5,10 +5,10 @@
 
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
+#include "mapdelta/common/stereo_rectifier.hpp"
 #include "mapdelta/vio/estimator.hpp"
 #include "mapdelta/vio/feature_tracker.hpp"
 #include "mapdelta/vio/initializer.hpp"
-#include "mapdelta/vio/stereo_rectifier.hpp"
 
 namespace mapdelta::vio {
 namespace {

@@ -5,16 +5,17 @@
 #include <memory>
 
 #include "mapdelta/client/odometry_source.hpp"
-#include "mapdelta/common/euroc.hpp"
+#include "mapdelta/client/stereo_input.hpp"
 
 namespace mapdelta::client {
 
 class VioOdometrySource : public OdometrySource {
  public:
-  // The sequence must outlive the source. Throws Error(kUnsupported) for non-rectified rigs.
-  explicit VioOdometrySource(const EurocSequence& sequence);
+  // The input must outlive the source; the VIO runs on its rectified cameras, and `images`
+  // given to At / PrepareFrame must be its rectified images (StereoInput::ReadLeft/ReadRight).
+  explicit VioOdometrySource(const StereoInput& input);
   ~VioOdometrySource() override;
-  // Runs the VIO on the stereo frame at t_ns (`images`, or read from the sequence when null);
+  // Runs the VIO on the stereo frame at t_ns (`images`, or read through the input when null);
   // nullopt until it is initialized or when t_ns is not a stereo frame of the sequence. After
   // a VIO reset the odometry frame changes: the samples after it carry the next segment
   // number (OdometrySample::segment).

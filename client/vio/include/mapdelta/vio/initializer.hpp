@@ -11,6 +11,11 @@
 //   3. velocities and gravity (in the first body frame) by linear least squares over the
 //      preintegrated velocity and position deltas; accept if |g| is plausible;
 //   4. rotate everything so that gravity points along -z (yaw of the first frame kept).
+// Beside it, at rest (StaticInitConfig): once the newest frames span `window_s` and their IMU
+// samples look like rest (rest_detector.hpp) while the PnP chain of step 1 says they did not
+// move, they initialize at once with zero velocity, the mean gyro reading as the gyro bias and
+// gravity opposite to the mean accelerometer reading (the moving alignment needs
+// init_min_span_s of motion and would wait 0.9 s).
 #include <deque>
 #include <optional>
 #include <vector>
@@ -44,6 +49,9 @@ class Initializer {
   bool RelativeMotion(const FrameFeatures& prev, const FrameFeatures& cur, SE3* T_prev_cur,
                       size_t min_inliers = 10) const;
   bool Align(std::vector<InitFrame>* frames) const;
+  // The newest frames spanning StaticInitConfig::window_s, initialized at rest; nothing if the
+  // IMU or the PnP chain says they moved.
+  std::optional<std::vector<InitFrame>> StartAtRest() const;
 
   VioConfig config_;
   StereoExtrinsics ext_;

@@ -30,8 +30,30 @@ struct NavState {
   Eigen::Vector3d ba = Eigen::Vector3d::Zero();  // accel bias, m/s^2
 };
 
+// Initialization at rest (rest_detector.hpp), beside the moving one: a vehicle that starts
+// parked or at a light has no motion for the linear alignment to measure gravity from, but
+// at rest the accelerometer reads gravity itself and the gyroscope its bias. Rest is what the
+// IMU says (low spread over `window_s`) and what the stereo PnP chain confirms (the frames of
+// that window did not move): a vehicle at constant speed looks at rest to an IMU.
+struct StaticInitConfig {
+  bool enabled = true;
+  // 0.25 s: 5 frame intervals at 20 Hz, 50 IMU samples at 200 Hz (the gyro bias to about
+  // 1e-3 rad/s at EuRoC's noise); real EuRoC V1_01 rests for its first ~0.3 s, then vibrates.
+  double window_s = 0.25;
+  // Spread over the window (norm of the per-axis standard deviations). EuRoC V1_01's first
+  // 0.3 s: 0.006 rad/s and 0.09 m/s^2; with its rotors vibrating after that: 0.06 and 0.8.
+  double max_gyro_std = 0.02;       // rad/s
+  double max_accel_std = 0.25;      // m/s^2
+  double max_gravity_error = 0.05;  // | |mean accel| - gravity | / gravity
+  // Motion of the window's frames measured by the stereo PnP chain (against the window's first
+  // frame): 0.02 m in 0.25 s is 8 cm/s.
+  double max_translation_m = 0.02;
+  double max_rotation_deg = 0.5;
+};
+
 struct VioConfig {
   TrackerConfig tracker;
+  StaticInitConfig static_init;
   int window_keyframes = 10;        // keyframes kept in the optimization window
   int init_frames = 10;             // frames used by the stereo + IMU initialization
   // ... spanning at least this long: gravity comes from velocity differences over the span,

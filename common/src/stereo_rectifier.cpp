@@ -1,4 +1,4 @@
-#include "mapdelta/vio/stereo_rectifier.hpp"
+#include "mapdelta/common/stereo_rectifier.hpp"
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -10,7 +10,7 @@
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
 
-namespace mapdelta::vio {
+namespace mapdelta {
 namespace {
 
 cv::Mat CameraMatrix(const PinholeCamera& k) {
@@ -23,12 +23,13 @@ cv::Mat DistortionVector(const EurocCamera& cam, const char* name) {
   const bool radtan = m == "radial-tangential" || m == "radtan" || m == "plumb_bob" || m.empty();
   if (!radtan || (cam.distortion.size() != 4 && cam.distortion.size() != 5)) {
     throw Error(ErrorCode::kUnsupported,
-                std::string("vio: ") + name + " distortion_model '" + m + "' with " +
+                std::string("stereo rectifier: ") + name + " distortion_model '" + m + "' with " +
                     std::to_string(cam.distortion.size()) +
                     " coefficients: only radial-tangential (k1 k2 p1 p2 [k3]) is supported");
   }
   cv::Mat d(1, static_cast<int>(cam.distortion.size()), CV_64F);
-  for (size_t i = 0; i < cam.distortion.size(); ++i) d.at<double>(0, static_cast<int>(i)) = cam.distortion[i];
+  for (size_t i = 0; i < cam.distortion.size(); ++i)
+    d.at<double>(0, static_cast<int>(i)) = cam.distortion[i];
   return d;
 }
 
@@ -60,31 +61,35 @@ bool IsRectifiedPair(const EurocCamera& cam0, const EurocCamera& cam1) {
 StereoRectifier::StereoRectifier(const EurocCamera& cam0, const EurocCamera& cam1) {
   cam0.intrinsics.Validate();
   cam1.intrinsics.Validate();
-  if (cam0.intrinsics.width != cam1.intrinsics.width || cam0.intrinsics.height != cam1.intrinsics.height) {
-    throw Error(ErrorCode::kUnsupported, "vio: cam0 and cam1 resolutions differ");
+  if (cam0.intrinsics.width != cam1.intrinsics.width ||
+      cam0.intrinsics.height != cam1.intrinsics.height) {
+    throw Error(ErrorCode::kUnsupported, "stereo rectifier: cam0 and cam1 resolutions differ");
   }
   const SE3 T_cam0_cam1 = cam0.T_body_cam.inverse() * cam1.T_body_cam;
   const Eigen::Vector3d t01 = T_cam0_cam1.translation();
   // Horizontal stereo only: the front end searches matches along rows, right camera at +x.
   if (!(t01.x() > 0.7 * t01.norm())) {
     throw Error(ErrorCode::kUnsupported,
-                "vio: cam1 must sit to the right of cam0 (T_cam0_cam1 translation mostly +x), got (" +
-                    std::to_string(t01.x()) + ", " + std::to_string(t01.y()) + ", " + std::to_string(t01.z()) + ")");
+                "stereo rectifier: cam1 must sit to the right of cam0 (T_cam0_cam1 translation "
+                "mostly +x), got (" +
+                    std::to_string(t01.x()) + ", " + std::to_string(t01.y()) + ", " +
+                    std::to_string(t01.z()) + ")");
   }
   const cv::Mat K0 = CameraMatrix(cam0.intrinsics), K1 = CameraMatrix(cam1.intrinsics);
   const cv::Mat D0 = DistortionVector(cam0, "cam0"), D1 = DistortionVector(cam1, "cam1");
   // OpenCV wants x1 = R x0 + T, i.e. T_cam1_cam0.
   const SE3 T_cam1_cam0 = T_cam0_cam1.inverse();
   const cv::Mat R = ToCv(T_cam1_cam0.linear());
-  const cv::Mat T = (cv::Mat_<double>(3, 1) << T_cam1_cam0.translation().x(), T_cam1_cam0.translation().y(),
-                     T_cam1_cam0.translation().z());
+  const cv::Mat T = (cv::Mat_<double>(3, 1) << T_cam1_cam0.translation().x(),
+                     T_cam1_cam0.translation().y(), T_cam1_cam0.translation().z());
   const cv::Size size(cam0.intrinsics.width, cam0.intrinsics.height);
   cv::Mat R1, R2, P1, P2, Q;
-  cv::stereoRectify(K0, D0, K1, D1, size, R, T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0, size);
+  cv::stereoRectify(K0, D0, K1, D1, size, R, T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0,
+                    size);
   const double f = P1.at<double>(0, 0);
   baseline_m_ = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
   if (!(f > 0) || !(baseline_m_ > 0) || !std::isfinite(baseline_m_)) {
-    throw Error(ErrorCode::kUnsupported, "vio: stereo rectification failed (focal " + std::to_string(f) +
+    throw Error(ErrorCode::kUnsupported, "stereo rectification failed (focal " + std::to_string(f) +
                                              ", baseline " + std::to_string(baseline_m_) + ")");
   }
   const cv::Mat* Rs[2] = {&R1, &R2};
@@ -105,7 +110,8 @@ StereoRectifier::StereoRectifier(const EurocCamera& cam0, const EurocCamera& cam
     SE3 T_cam_rect = SE3::Identity();
     T_cam_rect.linear() = ToEigen(*Rs[i]).transpose();
     out.T_body_cam = in[i]->T_body_cam * T_cam_rect;
-    cv::initUndistortRectifyMap(*Ks[i], *Ds[i], *Rs[i], *Ps[i], size, CV_32FC1, map_x_[i], map_y_[i]);
+    cv::initUndistortRectifyMap(*Ks[i], *Ds[i], *Rs[i], *Ps[i], size, CV_32FC1, map_x_[i],
+                                map_y_[i]);
   }
   // Pixels whose source lies outside the input image (alpha 0 keeps them to a thin rim at most).
   int outside = 0;
@@ -117,16 +123,17 @@ StereoRectifier::StereoRectifier(const EurocCamera& cam0, const EurocCamera& cam
       }
     }
   }
-  MD_LOG(kInfo, "vio: rectifying stereo: f " << f << " px, c (" << rect_[0].intrinsics.cx << ", "
-                                             << rect_[0].intrinsics.cy << "), baseline " << baseline_m_
-                                             << " m, " << outside << " output pixels outside the input");
+  MD_LOG(kInfo, "rectifying stereo: f " << f << " px, c (" << rect_[0].intrinsics.cx << ", "
+                                        << rect_[0].intrinsics.cy << "), baseline " << baseline_m_
+                                        << " m, " << outside << " output pixels outside the input");
 }
 
 void StereoRectifier::Rectify(int index, const cv::Mat& in, cv::Mat* out) const {
   const auto& k = rect_[index].intrinsics;
   if (in.cols != k.width || in.rows != k.height || in.type() != CV_8UC1) {
-    throw Error(ErrorCode::kInvalidArgument, "vio: rectifier expects 8-bit grey " + std::to_string(k.width) + "x" +
-                                                 std::to_string(k.height) + " images for cam" + std::to_string(index));
+    throw Error(ErrorCode::kInvalidArgument,
+                "stereo rectifier expects 8-bit grey " + std::to_string(k.width) + "x" +
+                    std::to_string(k.height) + " images for cam" + std::to_string(index));
   }
   // Replicated borders: a source pixel just outside the image repeats the edge, never black.
   cv::remap(in, *out, map_x_[index], map_y_[index], cv::INTER_LINEAR, cv::BORDER_REPLICATE);
@@ -145,9 +152,10 @@ cv::Point2d StereoRectifier::SourcePixel(int index, double u, double v) const {
   return {lerp(mx), lerp(my)};
 }
 
-std::unique_ptr<StereoRectifier> MakeRectifierIfNeeded(const EurocCamera& cam0, const EurocCamera& cam1) {
+std::unique_ptr<StereoRectifier> MakeRectifierIfNeeded(const EurocCamera& cam0,
+                                                       const EurocCamera& cam1) {
   if (IsRectifiedPair(cam0, cam1)) return nullptr;
   return std::make_unique<StereoRectifier>(cam0, cam1);
 }
 
-}  // namespace mapdelta::vio
+}  // namespace mapdelta

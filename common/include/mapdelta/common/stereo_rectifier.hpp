@@ -1,16 +1,16 @@
 #pragma once
 // Stereo rectification for cameras that are not already a rectified pinhole pair (real EuRoC:
-// radial-tangential lenses, the two cameras ~1 degree from parallel). The front end needs
-// rectified, undistorted images (row search for stereo matches), so the odometry rectifies
-// every incoming pair and runs on the rectified cameras below.
-// Internal header (OpenCV types): only the VIO's own sources and tests include it.
+// radial-tangential lenses, the two cameras ~1 degree from parallel). The VIO's front end (row
+// search for stereo matches) and the client's stereo depth (SGBM) need rectified, undistorted
+// images, so pairs are remapped once on input and every stage runs on the rectified cameras.
+// Narrow header (OpenCV types): included by the rectifying sources and tests only.
 #include <opencv2/core.hpp>
 
 #include <memory>
 
 #include "mapdelta/common/euroc.hpp"
 
-namespace mapdelta::vio {
+namespace mapdelta {
 
 // True if the pair already is what the front end needs: no distortion, equal rotations, cam1
 // at +x of cam0 (the tolerances of the estimator's checks).
@@ -43,7 +43,8 @@ class StereoRectifier {
   cv::Mat map_x_[2], map_y_[2];  // CV_32FC1: rectified pixel -> input pixel
 };
 
-// The rectifier the odometry needs for this pair, or nullptr if it is already rectified.
-std::unique_ptr<StereoRectifier> MakeRectifierIfNeeded(const EurocCamera& cam0, const EurocCamera& cam1);
+// The rectifier this pair needs, or nullptr if it is already rectified.
+std::unique_ptr<StereoRectifier> MakeRectifierIfNeeded(const EurocCamera& cam0,
+                                                       const EurocCamera& cam1);
 
-}  // namespace mapdelta::vio
+}  // namespace mapdelta
