@@ -31,13 +31,9 @@
 
 namespace {
 
-const char* kUsage =
-    "usage: bench_client --sequence DIR [--prior CLOUD] [--seconds S] [--no-baseline]\n"
-    "  --sequence DIR  EuRoC-layout sequence (e.g. DATA/sequences/S1_01 of the paper preset)\n"
-    "  --prior CLOUD   prior map (PCD/PLY) for registration and fusion; default: the\n"
-    "                  dataset's scenes/original/cloud.pcd if there, else none\n"
-    "  --seconds S     prefix of the sequence (default: all of it)\n"
-    "  --no-baseline   only the shipped structure\n";
+const char* kDescription =
+    "Whole-client benchmark on a sequence: the shipped pipeline structure beside the baseline\n"
+    "(bench/README.md).";
 
 double ProcessCpuSeconds() {
   rusage u{};
@@ -87,7 +83,8 @@ Row Run(const std::string& name, const std::string& sequence_dir, const std::str
 
 int main(int argc, char** argv) {
   mapdelta::bench::SequenceBenchArgs args;
-  if (auto exit_code = mapdelta::bench::ParseSequenceBenchArgs(argc, argv, "bench_client", kUsage, true, &args)) {
+  if (auto exit_code = mapdelta::bench::ParseSequenceBenchArgs(argc, argv, "bench_client",
+                                                               kDescription, true, &args)) {
     return *exit_code;
   }
   const std::string& sequence = args.sequence;

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
@@ -37,43 +38,15 @@ struct Options {
   int repeats = 3;
 };
 
-void PrintHelp() {
-  std::cout << "usage: bench_registration [--data DIR] [--voxel M] [--threads N] [--repeats N]\n"
-               "  DIR holds source.ply, target.ply, T_target_source.txt (default: the test pair)\n"
-               "  --voxel M    downsampling leaf for both clouds, both methods (default 0.25)\n"
-               "  --threads N  threads for our GICP's second run (default 2)\n"
-               "  --repeats N  timed runs per method; the median is reported (default 3)\n"
-               "  --verbose    debug log lines (stderr)\n";
-}
-
-enum class Parse { kRun, kHelp, kError };
-
-Parse ParseArgs(int argc, char** argv, Options* o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const bool has_value = i + 1 < argc;
-    if (a == "--help" || a == "-h") {
-      return Parse::kHelp;
-    } else if (a == "--verbose") {
-      mapdelta::log::SetLevel(mapdelta::log::Level::kDebug);
-    } else if (a == "--data" && has_value) {
-      o->data_dir = argv[++i];
-    } else if (a == "--voxel" && has_value) {
-      o->voxel_m = std::stod(argv[++i]);
-    } else if (a == "--threads" && has_value) {
-      o->threads = std::stoi(argv[++i]);
-    } else if (a == "--repeats" && has_value) {
-      o->repeats = std::stoi(argv[++i]);
-    } else {
-      std::cerr << "bench_registration: unknown or incomplete option '" << a << "'\n";
-      return Parse::kError;
-    }
-  }
-  if (!(o->voxel_m > 0) || o->threads < 1 || o->repeats < 1) {
-    std::cerr << "bench_registration: --voxel must be > 0, --threads and --repeats >= 1\n";
-    return Parse::kError;
-  }
-  return Parse::kRun;
+void DeclareOptions(mapdelta::cli::Parser* cli, Options* o, bool* verbose) {
+  cli->Option("data", &o->data_dir,
+              "folder with source.ply, target.ply, T_target_source.txt (default: the test pair)",
+              "DIR")
+      .Option("voxel", &o->voxel_m, "downsampling leaf for both clouds, both methods [m]", "M")
+      .Option("threads", &o->threads, "threads for our GICP's second run")
+      .Option("repeats", &o->repeats, "timed runs per method; the median is reported")
+      .Flag("verbose", verbose, "debug log lines (stderr)")
+      .Footer(mapdelta::cli::kExitCodesFooter);
 }
 
 SE3 ReadTransform(const std::string& path) {
@@ -148,16 +121,19 @@ void Report(const char* name, const Run& r, const SE3& reference, const Run& bas
 int main(int argc, char** argv) {
   mapdelta::log::SetLevel(mapdelta::log::Level::kWarn);
   Options o;
-  Parse parse = Parse::kError;
-  try {
-    parse = ParseArgs(argc, argv, &o);
-  } catch (const std::exception&) {  // std::stod / std::stoi on a non-number
-    std::cerr << "bench_registration: an option value is not a number\n";
+  bool verbose = false;
+  mapdelta::cli::Parser cli("bench_registration",
+                            "Our GICP beside PCL's on a real scan pair (bench/README.md).");
+  DeclareOptions(&cli, &o, &verbose);
+  if (const auto exit_code = mapdelta::cli::ParseMain(cli, argc, argv, [&] {
+        if (!(o.voxel_m > 0) || o.threads < 1 || o.repeats < 1) {
+          mapdelta::cli::FailUsage(cli.program(),
+                                   "--voxel must be > 0, --threads and --repeats >= 1");
+        }
+      })) {
+    return *exit_code;
   }
-  if (parse != Parse::kRun) {
-    PrintHelp();
-    return parse == Parse::kHelp ? 0 : 2;
-  }
+  if (verbose) mapdelta::log::SetLevel(mapdelta::log::Level::kDebug);
   try {
     const SE3 reference = ReadTransform(o.data_dir + "/T_target_source.txt");
     const auto voxel = static_cast<float>(o.voxel_m);

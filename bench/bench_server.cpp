@@ -9,20 +9,20 @@
 // Commit baseline (--no-baseline skips it): the session-1 structure, i.e. every PNG decoded
 // twice (the clouds stored at upload are made stale, so the commit recomputes them) and the
 // octree pass as two halves on two threads (chunk = N/2), merged.
-// Usage: bench_server [--keyframes N] [--dir DIR] [--threads T] [--chunk K] [--no-http]
-//                     [--no-baseline]
+// Usage: bench_server --help
 #include <sys/resource.h>
 
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <thread>
 
 #include "auth.hpp"
 #include "box_scene.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/server/http_server.hpp"
@@ -71,33 +71,44 @@ mds::Json Meta(int64_t t_ns, const md::SE3& T) {
   return mds::Json{{"t_ns", t_ns}, {"T_map_cam", {{"t", {t.x(), t.y(), t.z()}}, {"q", {q.w(), q.x(), q.y(), q.z()}}}}};
 }
 
+struct BenchOptions {
+  int keyframes = 500;
+  int threads = 2;
+  int chunk = mds::PipelineConfig().chunk_keyframes;
+  std::string dir = (std::filesystem::temp_directory_path() / "mapdelta_bench_server").string();
+  bool no_http = false, no_baseline = false;
+};
+
+// nullopt: run with `o`; otherwise the exit code (after --help or a usage error).
+std::optional<int> ParseOptions(int argc, char** argv, BenchOptions* o) {
+  md::cli::Parser cli(
+      "bench_server",
+      "Server ingest and commit benchmark: N keyframes at 800x450, ingest over HTTP and\n"
+      "through the facade, commit beside the baseline structure (decode twice, two\n"
+      "octrees; bench/README.md).");
+  cli.Option("keyframes", &o->keyframes, "keyframes in the session")
+      .Option("dir", &o->dir, "scratch folder (emptied first)", "DIR")
+      .Option("threads", &o->threads, "job threads (pipeline.threads)")
+      .Option("chunk", &o->chunk, "pipeline.chunk_keyframes", "K")
+      .Flag("no-http", &o->no_http, "skip the HTTP ingest run")
+      .Flag("no-baseline", &o->no_baseline, "skip the decode-twice, two-octree commit run")
+      .Footer(md::cli::kExitCodesFooter);
+  return md::cli::ParseMain(cli, argc, argv, [&] {
+    if (o->keyframes < 1 || o->threads < 1 || o->chunk < 1) {
+      md::cli::FailUsage(cli.program(),
+                         "--keyframes, --threads and --chunk: expected positive integers");
+    }
+  });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  int keyframes = 500;
-  int threads = 2, chunk = mds::PipelineConfig().chunk_keyframes;
-  bool http_ingest = true, baseline = true;
-  std::string dir = (std::filesystem::temp_directory_path() / "mapdelta_bench_server").string();
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--help")) {
-      std::printf(
-          "bench_server [--keyframes N] [--dir DIR] [--threads T] [--chunk K] [--no-http]: server\n"
-          "ingest and commit benchmark (N keyframes at 800x450, default 500; T job threads,\n"
-          "default 2; K = pipeline.chunk_keyframes; --no-http skips the HTTP ingest run;\n"
-          "--no-baseline skips the decode-twice, two-octree commit run)\n");
-      return 0;
-    }
-    if (!std::strcmp(argv[i], "--keyframes") && i + 1 < argc) keyframes = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--dir") && i + 1 < argc) dir = argv[++i];
-    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--chunk") && i + 1 < argc) chunk = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--no-http")) http_ingest = false;
-    else if (!std::strcmp(argv[i], "--no-baseline")) baseline = false;
-    else {
-      std::fprintf(stderr, "unknown argument %s (see --help)\n", argv[i]);
-      return 2;
-    }
-  }
+  BenchOptions options;
+  if (const auto exit_code = ParseOptions(argc, argv, &options)) return *exit_code;
+  const int keyframes = options.keyframes, threads = options.threads, chunk = options.chunk;
+  const std::string& dir = options.dir;
+  const bool http_ingest = !options.no_http, baseline = !options.no_baseline;
   md::log::SetLevel(md::log::Level::kWarn);
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);

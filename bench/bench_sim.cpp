@@ -1,13 +1,14 @@
 // Simulator throughput: Embree BVH vs brute-force box tests for the same renders (ratio), and the
 // time to generate one `paper` sequence, measured on the first N stereo frames and extrapolated.
-// usage: bench_sim [frames=120] [threads=2]
+// usage: bench_sim [--frames 120] [--threads 2]
+#include <sys/resource.h>
 #include <chrono>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <sys/resource.h>
 
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/sim/dataset_writer.hpp"
 #include "mapdelta/sim/generator.hpp"
 #include "mapdelta/sim/raycaster.hpp"
@@ -33,8 +34,18 @@ double CpuSeconds() {
 int main(int argc, char** argv) {
   using namespace mapdelta;
   using namespace mapdelta::sim;
-  const size_t frames = argc > 1 ? static_cast<size_t>(std::atoi(argv[1])) : 120;
-  const int threads = argc > 2 ? std::atoi(argv[2]) : 2;
+  uint64_t frames = 120;
+  int threads = 2;
+  cli::Parser parser(
+      "bench_sim",
+      "Embree vs brute-force render time on the paper scene, and one sequence's stages.");
+  parser.Option("frames", &frames, "views to render").Option("threads", &threads, "render threads");
+  if (const auto exit_code = cli::ParseMain(parser, argc, argv, [&] {
+        if (frames < 1 || threads < 1)
+          cli::FailUsage(parser.program(), "--frames and --threads: expected >= 1");
+      })) {
+    return *exit_code;
+  }
   SimConfig c = PresetConfig("paper");
   c.threads = threads;
   auto t0 = std::chrono::steady_clock::now();

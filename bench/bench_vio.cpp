@@ -40,11 +40,9 @@
 
 namespace {
 
-const char* kUsage =
-    "usage: bench_vio --sequence DIR [--seconds S] [--no-baseline]\n"
-    "  --sequence DIR  EuRoC-layout sequence (e.g. /work/data/paper-small-s1/sequences/S1_01)\n"
-    "  --seconds S     prefix of the sequence to run (default 20)\n"
-    "  --no-baseline   skip the session-1 configuration\n";
+const char* kDescription =
+    "VIO benchmark on the first --seconds of a sequence (default 20 here), beside the session-1\n"
+    "configuration (bench/README.md).";
 
 using Clock = std::chrono::steady_clock;
 
@@ -169,7 +167,8 @@ void PrintQuality(const Row& r) {
 int main(int argc, char** argv) {
   mapdelta::bench::SequenceBenchArgs args;
   args.seconds = 20;
-  if (auto exit_code = mapdelta::bench::ParseSequenceBenchArgs(argc, argv, "bench_vio", kUsage, false, &args)) {
+  if (auto exit_code = mapdelta::bench::ParseSequenceBenchArgs(argc, argv, "bench_vio",
+                                                               kDescription, false, &args)) {
     return *exit_code;
   }
   const std::string& sequence = args.sequence;

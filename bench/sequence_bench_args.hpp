@@ -1,11 +1,11 @@
 #pragma once
 // Command line shared by the benchmarks that run on an EuRoC-layout sequence (bench_vio,
 // bench_client): --sequence DIR, --seconds S, --no-baseline, and --prior CLOUD where asked.
-#include <cstdlib>
 #include <iostream>
 #include <optional>
 #include <string>
 
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
 
@@ -13,43 +13,39 @@ namespace mapdelta::bench {
 
 struct SequenceBenchArgs {
   std::string sequence;
-  double seconds = 0;  // prefix to run; 0: the caller's default
+  double seconds = 0;  // prefix to run; 0: all of it
   bool baseline = true;
   std::optional<std::string> prior;
 };
 
-// nullopt: go on with `args`; otherwise the exit code (0 after --help, 2 on a bad command
-// line, with the message and the usage on stderr).
+// nullopt: go on with `args` (its values on entry are the defaults); otherwise the exit code
+// (0 after --help, 2 on a bad command line, with the message on stderr). `description`: the
+// benchmark's --help paragraph.
 inline std::optional<int> ParseSequenceBenchArgs(int argc, char** argv, const char* name,
-                                                 const char* usage, bool accepts_prior,
+                                                 const char* description, bool accepts_prior,
                                                  SequenceBenchArgs* args) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::cout << usage;
-      return 0;
-    } else if (a == "--sequence" && i + 1 < argc) {
-      args->sequence = argv[++i];
-    } else if (accepts_prior && a == "--prior" && i + 1 < argc) {
-      args->prior = argv[++i];
-    } else if (a == "--seconds" && i + 1 < argc) {
-      char* end = nullptr;
-      args->seconds = std::strtod(argv[++i], &end);
-      if (*end != '\0' || !(args->seconds > 0)) {
-        std::cerr << name << ": --seconds expects a positive number\n";
-        return 2;
-      }
-    } else if (a == "--no-baseline") {
-      args->baseline = false;
-    } else {
-      std::cerr << name << ": unknown or incomplete option " << a << "\n" << usage;
-      return 2;
-    }
+  cli::Parser cli(name, description);
+  std::string prior;
+  bool no_baseline = false;
+  cli.Option("sequence", &args->sequence,
+             "EuRoC-layout sequence (e.g. DATA/sequences/S1_01 of the paper preset)", "DIR")
+      .Option("seconds", &args->seconds, "prefix of the sequence to run [s] (0: all of it)", "S")
+      .Flag("no-baseline", &no_baseline, "only the shipped structure, no baseline run")
+      .Require({"sequence"});
+  if (accepts_prior) {
+    cli.Option("prior", &prior,
+               "prior map (PCD/PLY) for registration and fusion; default: the dataset's "
+               "scenes/original/cloud.pcd if there, else none",
+               "CLOUD");
   }
-  if (args->sequence.empty()) {
-    std::cerr << name << ": --sequence is required\n" << usage;
-    return 2;
+  if (const auto exit_code = cli::ParseMain(cli, argc, argv, [&] {
+        if (!(args->seconds >= 0))
+          cli::FailUsage(name, "--seconds: expected a non-negative number");
+      })) {
+    return exit_code;
   }
+  args->baseline = !no_baseline;
+  if (accepts_prior && cli.Given("prior")) args->prior = prior;
   return std::nullopt;
 }
 

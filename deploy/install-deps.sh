@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build ccache pkg-config git
   libeigen3-dev libpcl-dev liboctomap-dev libceres-dev libopencv-dev
-  libcpp-httplib-dev libsqlite3-dev sqlite3 libssl-dev zlib1g-dev nlohmann-json3-dev libyaml-cpp-dev
+  libcpp-httplib-dev libsqlite3-dev sqlite3 libssl-dev zlib1g-dev nlohmann-json3-dev libyaml-cpp-dev libcli11-dev
   libnanoflann-dev libembree-dev libgtest-dev libgmock-dev libbenchmark-dev
   curl jq gnuplot-nox
 )

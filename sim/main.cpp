@@ -6,7 +6,7 @@
 #include <unistd.h>
 #include <vector>
 
-#include "mapdelta/common/error.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/sim/generator.hpp"
 #include "mapdelta/sim/options.hpp"
@@ -35,16 +35,10 @@ void DrawProgress(const std::string& stage, size_t done, size_t total) {
 int RunRenoise(const std::vector<std::string>& args) {
   using namespace mapdelta;
   bool help = false, quiet = false;
-  sim::RenoiseOptions options;
-  try {
-    options = sim::ParseRenoiseArgs(args, &help, &quiet);
-  } catch (const Error& e) {
-    std::cerr << "mapdelta-sim: " << e.what() << "\nrun mapdelta-sim renoise --help for the options\n";
-    return 2;
-  }
+  const sim::RenoiseOptions options = sim::ParseRenoiseArgs(args, &help, &quiet);
   if (help) {
     std::cout << sim::RenoiseHelpText();
-    return 0;
+    return cli::kExitOk;
   }
   const auto start = std::chrono::steady_clock::now();
   long last_step = -1;
@@ -57,37 +51,22 @@ int RunRenoise(const std::vector<std::string>& args) {
     last_step = step;
     DrawProgress(stage, done, total);
   };
-  try {
-    sim::RenoiseDataset(options, progress);
-  } catch (const std::exception& e) {
-    std::cerr << "\nmapdelta-sim: " << e.what() << "\n";
-    return 1;
-  }
+  sim::RenoiseDataset(options, progress);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   MD_LOG(kInfo, "renoised dataset written to " << options.out_dir << " in " << secs << " s");
-  return 0;
+  return cli::kExitOk;
 }
 
-int main(int argc, char** argv) {
+// `mapdelta-sim --preset ... --out DIR`: a whole dataset (generator.hpp).
+int RunGenerate(const std::vector<std::string>& args) {
   using namespace mapdelta;
-  std::vector<std::string> args(argv + 1, argv + argc);
-  if (!args.empty() && args[0] == "renoise") return RunRenoise({args.begin() + 1, args.end()});
-  sim::CliArgs cli;
-  try {
-    cli = sim::ParseArgs(args);
-  } catch (const Error& e) {
-    std::cerr << "mapdelta-sim: " << e.what() << "\nrun mapdelta-sim --help for the options\n";
-    return 2;
-  }
-  if (cli.help) {
+  const sim::CliArgs parsed = sim::ParseArgs(args);
+  if (parsed.help) {
     std::cout << sim::HelpText();
-    return 0;
+    return cli::kExitOk;
   }
-  log::Level level;
-  if (!log::ParseLevel(cli.log_level, &level)) {
-    std::cerr << "mapdelta-sim: bad --log-level '" << cli.log_level << "'\n";
-    return 2;
-  }
+  log::Level level = log::Level::kInfo;
+  log::ParseLevel(parsed.log_level, &level);  // one of the parser's choices
   log::SetLevel(level);
   const auto start = std::chrono::steady_clock::now();
   std::string last_stage;
@@ -95,18 +74,23 @@ int main(int argc, char** argv) {
   const long steps = isatty(STDERR_FILENO) ? 200 : 10;  // redraws per stage
   auto progress = [&](const std::string& stage, size_t done, size_t total) {
     const long step = total ? static_cast<long>(done * static_cast<size_t>(steps) / total) : steps;
-    if (cli.quiet || (stage == last_stage && step == last_step)) return;
+    if (parsed.quiet || (stage == last_stage && step == last_step)) return;
     last_stage = stage;
     last_step = step;
     DrawProgress(stage, done, total);
   };
-  try {
-    sim::GenerateDataset(cli.config, cli.out_dir, progress);
-  } catch (const std::exception& e) {
-    std::cerr << "\nmapdelta-sim: " << e.what() << "\n";
-    return 1;
-  }
+  sim::GenerateDataset(parsed.config, parsed.out_dir, progress);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  MD_LOG(kInfo, "dataset written to " << cli.out_dir << " in " << secs << " s");
-  return 0;
+  MD_LOG(kInfo, "dataset written to " << parsed.out_dir << " in " << secs << " s");
+  return cli::kExitOk;
+}
+
+int main(int argc, char** argv) {
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  if (!args.empty() && args[0] == "renoise") {
+    return mapdelta::cli::RunMain("mapdelta-sim renoise", [&] {
+      return RunRenoise({args.begin() + 1, args.end()});
+    });
+  }
+  return mapdelta::cli::RunMain("mapdelta-sim", [&] { return RunGenerate(args); });
 }

@@ -13,44 +13,37 @@
 #include "mapdelta/sim/raycaster.hpp"
 #include "mapdelta/sim/sensor_rig.hpp"
 
-int main(int argc, char** argv) {
+namespace {
+
+int RunPreview(const std::vector<std::string>& args) {
   using namespace mapdelta;
   using namespace mapdelta::sim;
-  std::vector<std::string> args(argv + 1, argv + argc), sim_args;
   std::vector<double> times;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--help" || args[i] == "-h") {
-      std::cout << "mapdelta-sim-preview: top views and sample frames of the simulated city\n\n"
-                   "usage: mapdelta-sim-preview --out DIR [--time T]... [any mapdelta-sim option]\n"
-                   "  --out DIR   writes DIR/top_S1.png, DIR/top_S2.png and for every --time T (seconds)\n"
-                   "              and sequence: DIR/<seq>_<T>_left.png, DIR/<seq>_<T>_depth.png\n"
-                   "  --time T    frame time (default 5); repeatable\n"
-                   "  other options as mapdelta-sim (--preset, --seed, --sequences, --width, ...)\n";
-      return 0;
-    }
-    if (args[i] == "--time" && i + 1 < args.size()) {
-      try {
-        times.push_back(std::stod(args[++i]));
-      } catch (const std::exception&) {
-        std::cerr << "mapdelta-sim-preview: bad --time '" << args[i] << "'\n";
-        return 2;
-      }
-      continue;
-    }
-    sim_args.push_back(args[i]);
+  const CliExtension preview{
+      "mapdelta-sim-preview",
+      "mapdelta-sim-preview: top views and sample frames of the simulated city. Writes "
+      "OUT/top_S1.png,\n"
+      "OUT/top_S2.png and for every --time T and sequence: OUT/<seq>_<T>_left.png, "
+      "OUT/<seq>_<T>_depth.png.\n"
+      "Takes every mapdelta-sim option (--preset, --seed, --sequences, --width, ...).",
+      [&times](cli::Parser* p) { p->Repeated("time", &times, "frame time [s] (default 5)", "T"); }};
+  const CliArgs parsed = ParseArgs(args, &preview);
+  if (parsed.help) {
+    std::cout << HelpText(&preview);
+    return cli::kExitOk;
   }
   if (times.empty()) times.push_back(5.0);
-  try {
-    const CliArgs cli = ParseArgs(sim_args);
-    const SimConfig& c = cli.config;
-    std::filesystem::create_directories(cli.out_dir);
+  {
+    const SimConfig& c = parsed.config;
+    std::filesystem::create_directories(parsed.out_dir);
     const Scenes scenes = BuildScenes(c);
     for (const ChangedScene* cs : {&scenes.s1, &scenes.s2}) {
       std::vector<SequencePlan> plans;
       for (const std::string& name : c.sequences) {
         if (name.rfind(cs->scene.name + "_0", 0) == 0) plans.push_back(PlanSequence(c, scenes, name));
       }
-      WriteTopView(cli.out_dir + "/top_" + cs->scene.name + ".png", *cs, scenes.original, plans, 1000.0 / c.extent_x);
+      WriteTopView(parsed.out_dir + "/top_" + cs->scene.name + ".png", *cs, scenes.original, plans,
+                   1000.0 / c.extent_x);
     }
     // cam0 of the configured rig (a distorted lens renders through its per-pixel rays).
     const SensorRig rig = MakeSensorRig(c);
@@ -67,14 +60,18 @@ int main(int argc, char** argv) {
         RenderedView view;
         RenderViewInto(scene, caster, cam, T, {c.shadows, 3}, &view, rays.empty() ? nullptr : &rays);
         char stem[256];
-        std::snprintf(stem, sizeof(stem), "%s/%s_%05.1f", cli.out_dir.c_str(), name.c_str(), t);
+        std::snprintf(stem, sizeof(stem), "%s/%s_%05.1f", parsed.out_dir.c_str(), name.c_str(), t);
         WriteGreyPng(std::string(stem) + "_left.png", cam.width, cam.height, ToGrey8(view, 0.0, 0));
         WriteDepthColour(std::string(stem) + "_depth.png", view, 50.0);
       }
     }
-  } catch (const std::exception& e) {
-    std::cerr << "mapdelta-sim-preview: " << e.what() << "\n";
-    return 1;
   }
-  return 0;
+  return cli::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  return mapdelta::cli::RunMain("mapdelta-sim-preview", [&] { return RunPreview(args); });
 }

@@ -3,11 +3,12 @@
 // choose the temporal filter's alpha on simulated sequences (client/README.md).
 #include <cmath>
 #include <cstdio>
+#include <iostream>
 #include <map>
 
-#include "args.hpp"
 #include "commands.hpp"
 #include "mapdelta/client/stereo_depth.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
@@ -16,31 +17,23 @@
 namespace mapdelta::client::app {
 
 int RunDepthEval(int argc, char** argv) {
-  const char* usage =
-      "usage: mapdelta-client depth-eval KEYFRAMES_DIR SEQUENCE_DIR [--max-depth M]\n"
-      "  compares every keyframe's depth with the sequence's depth0 image of the same time\n"
-      "  (cropped like the keyframe camera); ground truth beyond --max-depth (default 50 m) is\n"
-      "  ignored. Prints RMSE, density (share of ground-truth pixels with a depth) and the share\n"
-      "  of depths off by more than 1 m, over all keyframes.\n";
-  Args args;
-  try {
-    args = ParseArgs(argc, argv, {"max-depth"}, {});
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s\n%s", e.what(), usage);
-    return 2;
-  }
-  if (args.help) {
-    std::fprintf(stderr, "%s", usage);
-    return 0;
-  }
-  if (args.positional.size() != 2) {
-    std::fprintf(stderr, "%s", usage);
-    return 2;
-  }
-  const double max_depth = std::stod(args.Get("max-depth", "50"));
-  const KeyframeFolder folder = ReadKeyframeFolderIndex(args.positional[0]);
-  const EurocSequence seq = ReadEurocSequence(args.positional[1]);
-  if (seq.depth0_images.empty()) throw Error(ErrorCode::kNotFound, args.positional[1] + ": no depth0 ground truth");
+  std::string keyframe_dir, sequence_dir;
+  double max_depth = 50;
+  cli::Parser cli(
+      "mapdelta-client depth-eval",
+      "Compares every keyframe's depth with the sequence's depth0 image of the same time (cropped\n"
+      "like the keyframe camera). Prints RMSE, density (share of ground-truth pixels with a "
+      "depth)\n"
+      "and the share of depths off by more than 1 m, over all keyframes.");
+  cli.Positional("KEYFRAMES_DIR", &keyframe_dir, "keyframe folder")
+      .Positional("SEQUENCE_DIR", &sequence_dir, "EuRoC-layout sequence with depth0 ground truth")
+      .Option("max-depth", &max_depth, "ground truth beyond this is ignored [m]", "M")
+      .Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(argc, argv, std::cout)) return cli::kExitOk;
+  const KeyframeFolder folder = ReadKeyframeFolderIndex(keyframe_dir);
+  const EurocSequence seq = ReadEurocSequence(sequence_dir);
+  if (seq.depth0_images.empty())
+    throw Error(ErrorCode::kNotFound, sequence_dir + ": no depth0 ground truth");
   std::map<int64_t, std::string> gt_path;
   for (const auto& im : seq.depth0_images) gt_path[im.t_ns] = im.path;
   double sq = 0;
@@ -48,7 +41,7 @@ int RunDepthEval(int argc, char** argv) {
   for (const auto& kf : folder.keyframes) {
     const auto it = gt_path.find(kf.t_ns);
     if (it == gt_path.end()) continue;
-    const DepthImage est = ReadKeyframeDepth(args.positional[0], folder, kf.t_ns);
+    const DepthImage est = ReadKeyframeDepth(keyframe_dir, folder, kf.t_ns);
     DepthImage gt = ReadDepthPng(it->second);
     if (gt.width < est.width || gt.height != est.height) {
       throw Error(ErrorCode::kInvalidArgument, it->second + ": size does not match the keyframe depth");

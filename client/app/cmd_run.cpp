@@ -4,10 +4,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 #include <thread>
 
-#include "args.hpp"
 #include "commands.hpp"
 #include "mapdelta/client/config.hpp"
 #include "mapdelta/client/http_transport.hpp"
@@ -17,10 +17,12 @@
 #include "mapdelta/client/registration_report.hpp"
 #include "mapdelta/client/stereo_input.hpp"
 #include "mapdelta/client/uploader.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/trajectory_io.hpp"
+#include "progress_line.hpp"
 #ifdef MAPDELTA_CLIENT_HAS_VIO
 #include "mapdelta/client/vio_odometry_source.hpp"
 #endif
@@ -29,30 +31,74 @@ namespace mapdelta::client::app {
 namespace fs = std::filesystem;
 namespace {
 
-const char* kRunUsage =
-    "usage: mapdelta-client run --sequence DIR --odometry FILE (--prior FILE | --server URL --token T)\n"
-    "                           --out DIR [options]\n"
-    "  --sequence DIR      EuRoC-layout sequence (mav0/cam0, cam1, imu0; sensor.yaml)\n"
-    "  --odometry SRC      'vio': run the stereo-inertial VIO (mapdelta_vio) on the sequence;\n"
-    "                      FILE: a recorded odometry trajectory T_odom_body (TUM or EuRoC CSV);\n"
-    "                      'gt': the sequence's ground truth (for tests)\n"
-    "  --prior FILE        prior map (PCD/PLY, map frame), offline mode\n"
-    "  --server URL        fetch prior tiles from the server (cached in OUT/prior_cache) and\n"
-    "  --token T           upload the session (unless --no-upload)\n"
-    "  --out DIR           vio.txt, fused.txt (TUM, T_map_body), keyframes/, timing.txt,\n"
-    "                      registrations.csv (every attempt, pose, sigmas, reason),\n"
-    "                      config.yaml (effective config), keyframes.upload_queue/\n"
-    "  --config FILE       YAML configuration (see 'mapdelta-client config')\n"
-    "  --initial-pose \"x y z qx qy qz qw\"  guess of T_map_body at the first keyframe\n"
-    "                      (default: the sequence's ground truth, with a warning)\n"
-    "  --max-frames N      stop after N frames\n"
-    "  --log-level L       debug | info (default) | warn | error\n"
-    "  --inject-reset-at S test fixture: an odometry reset S seconds after the first frame\n"
-    "                      (no pose for --inject-reset-gap S, default 0.5, then the odometry\n"
-    "                      in another frame: 30 deg yaw, 50 m away), as a VIO reset\n"
-    "  --upload-wait S     seconds to wait for the upload to finish at the end (default 120);\n"
-    "                      what is left stays queued: 'mapdelta-client upload OUT/keyframes ...'\n"
-    "  --no-upload         with --server: only fetch the prior\n";
+// The command line of 'run', parsed and checked before anything is read.
+struct RunOptions {
+  std::string sequence, odometry, prior, server, token, out, config, initial_pose,
+      log_level = "info";
+  int max_frames = 0;
+  double upload_wait_s = 120, inject_reset_at_s = 0, inject_reset_gap_s = 0.5;
+  bool inject_reset = false, no_upload = false;
+};
+
+// False after --help; throws Error(kInvalidArgument) for usage errors.
+bool ParseRunOptions(int argc, char** argv, RunOptions* o) {
+  cli::Parser cli(
+      "mapdelta-client run",
+      "The whole vehicle pipeline over a recorded sequence: stereo depth, temporal filter,\n"
+      "odometry, prior-map registration, fusion, keyframes (and their upload with --server).");
+  cli.Option("sequence", &o->sequence, "EuRoC-layout sequence (mav0/cam0, cam1, imu0; sensor.yaml)",
+             "DIR")
+      .Option("odometry", &o->odometry,
+              "'vio': the stereo-inertial VIO (mapdelta_vio) on the sequence; FILE: a recorded "
+              "odometry "
+              "trajectory T_odom_body (TUM or EuRoC CSV); 'gt': the sequence's ground truth (for "
+              "tests)",
+              "SRC")
+      .Option("prior", &o->prior, "prior map (PCD/PLY, map frame), offline mode", "FILE")
+      .Option(
+          "server", &o->server,
+          "fetch prior tiles from the server (cached in OUT/prior_cache) and upload the session "
+          "(unless --no-upload)",
+          "URL")
+      .Option("token", &o->token, "vehicle token for --server", "T")
+      .Option(
+          "out", &o->out,
+          "vio.txt, fused.txt (TUM, T_map_body), keyframes/, timing.txt, registrations.csv (every "
+          "attempt, pose, sigmas, reason), config.yaml (effective config), keyframes.upload_queue/",
+          "DIR")
+      .Option("config", &o->config, "YAML configuration (see 'mapdelta-client config')", "FILE")
+      .Option(
+          "initial-pose", &o->initial_pose,
+          "guess of T_map_body at the first keyframe (default: the sequence's ground truth, with a "
+          "warning)",
+          "\"x y z qx qy qz qw\"")
+      .Option("max-frames", &o->max_frames, "stop after N frames (0: all)")
+      .Option("log-level", &o->log_level, "log level")
+      .Choices("log-level", {"debug", "info", "warn", "error", "off"})
+      .Option("inject-reset-at", &o->inject_reset_at_s,
+              "test fixture: an odometry reset S seconds after the first frame (no pose for "
+              "--inject-reset-gap, then the odometry in another frame: 30 deg yaw, 50 m away), as "
+              "a VIO reset",
+              "S")
+      .Option("inject-reset-gap", &o->inject_reset_gap_s,
+              "seconds without odometry at the injected reset", "S")
+      .Option("upload-wait", &o->upload_wait_s,
+              "seconds to wait for the upload to finish at the end; what is left stays queued: "
+              "'mapdelta-client upload OUT/keyframes ...'",
+              "S")
+      .Flag("no-upload", &o->no_upload, "with --server: only fetch the prior")
+      .Require({"sequence", "odometry", "out"})
+      .Footer(std::string(
+          "Exit codes: 0 success, 1 runtime failure or unreadable/malformed input, 2 usage or "
+          "configuration error, 3 the upload did not finish (resume it with 'upload')."));
+  if (!cli.Parse(argc, argv, std::cout)) return false;
+  if (o->prior.empty() == o->server.empty())
+    cli::FailUsage(cli.program(), "expected one of --prior and --server");
+  if (!o->server.empty() && o->token.empty())
+    cli::FailUsage(cli.program(), "--server needs --token");
+  o->inject_reset = cli.Given("inject-reset-at");
+  return true;
+}
 
 SE3 ParsePose(const std::string& text) {
   std::istringstream in(text);
@@ -88,40 +134,13 @@ void WriteTiming(const std::string& path, const PipelineResult& r) {
 }  // namespace
 
 int RunPipeline(int argc, char** argv) {
-  Args args;
-  try {
-    args = ParseArgs(argc, argv, {"sequence", "odometry", "prior", "server", "token", "out", "config",
-                                  "initial-pose", "max-frames", "upload-wait",
-                                  "inject-reset-at", "inject-reset-gap", "log-level"},
-                     {"no-upload"});
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s\n%s", e.what(), kRunUsage);
-    return 2;
-  }
-  if (args.help) {
-    std::fprintf(stderr, "%s", kRunUsage);
-    return 0;
-  }
-  std::string missing;
-  for (const char* key : {"sequence", "odometry", "out"}) {
-    if (!args.Has(key)) missing += std::string(" --") + key;
-  }
-  if (!args.Has("prior") && !args.Has("server")) missing += " --prior|--server";
-  if (args.Has("server") && !args.Has("token")) missing += " --token";
-  if (!missing.empty()) {
-    std::fprintf(stderr, "missing:%s\n%s", missing.c_str(), kRunUsage);
-    return 2;
-  }
-  if (args.Has("log-level")) {
-    log::Level level;
-    if (!log::ParseLevel(args.Get("log-level"), &level)) {
-      std::fprintf(stderr, "--log-level: expected debug, info, warn or error\n");
-      return 2;
-    }
-    log::SetLevel(level);
-  }
-  const ClientConfig config = args.Has("config") ? LoadClientConfig(args.Get("config")) : ClientConfig{};
-  const std::string out = args.Get("out");
+  RunOptions o;
+  if (!ParseRunOptions(argc, argv, &o)) return cli::kExitOk;
+  log::Level level = log::Level::kInfo;
+  log::ParseLevel(o.log_level, &level);  // one of the parser's choices
+  log::SetLevel(level);
+  const ClientConfig config = o.config.empty() ? ClientConfig{} : LoadClientConfig(o.config);
+  const std::string& out = o.out;
   // A second run into the same folder would append a second copy of the keyframes (and a
   // second series of uploads into the first run's session): refuse, and say how to resume.
   if (fs::exists(out + "/keyframes") || fs::exists(out + "/keyframes.upload_queue")) {
@@ -137,24 +156,25 @@ int RunPipeline(int argc, char** argv) {
 
   std::unique_ptr<OdometrySource> odometry;
   std::unique_ptr<StereoInput> vio_input;  // the VIO reads it while the pipeline runs
-  if (args.Get("odometry") == "vio") {
+  if (o.odometry == "vio") {
 #ifdef MAPDELTA_CLIENT_HAS_VIO
-    vio_input = std::make_unique<StereoInput>(ReadEurocSequence(args.Get("sequence")));
+    vio_input = std::make_unique<StereoInput>(ReadEurocSequence(o.sequence));
     odometry = std::make_unique<VioOdometrySource>(*vio_input);
 #else
     throw Error(ErrorCode::kUnsupported, "--odometry vio: this build has no VIO (client/vio)");
 #endif
-  } else if (args.Get("odometry") == "gt") {
-    odometry = std::make_unique<TrajectoryOdometrySource>(ReadEurocSequence(args.Get("sequence")).groundtruth);
+  } else if (o.odometry == "gt") {
+    odometry =
+        std::make_unique<TrajectoryOdometrySource>(ReadEurocSequence(o.sequence).groundtruth);
   } else {
-    odometry = std::make_unique<TrajectoryOdometrySource>(args.Get("odometry"));
+    odometry = std::make_unique<TrajectoryOdometrySource>(o.odometry);
   }
   std::unique_ptr<OdometrySource> injected;
-  if (args.Has("inject-reset-at")) {
-    const auto frames = ReadEurocSequence(args.Get("sequence")).StereoFrames();
-    if (frames.empty()) throw Error(ErrorCode::kNotFound, args.Get("sequence") + ": no stereo frames");
-    const double at_s = std::stod(args.Get("inject-reset-at"));
-    const double gap_s = std::stod(args.Get("inject-reset-gap", "0.5"));
+  if (o.inject_reset) {
+    const auto frames = ReadEurocSequence(o.sequence).StereoFrames();
+    if (frames.empty()) throw Error(ErrorCode::kNotFound, o.sequence + ": no stereo frames");
+    const double at_s = o.inject_reset_at_s;
+    const double gap_s = o.inject_reset_gap_s;
     const SE3 T_new_old = MakeSE3(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitZ())),
                                   Eigen::Vector3d(30.0, -40.0, 2.0));
     injected = std::make_unique<InjectedResetOdometrySource>(
@@ -163,29 +183,29 @@ int RunPipeline(int argc, char** argv) {
   }
   std::unique_ptr<HttpTransport> transport;
   std::unique_ptr<PriorSource> prior;
-  if (args.Has("server")) {
-    transport = MakeHttpTransport(args.Get("server"), args.Get("token"), config.upload.timeout_s);
+  if (!o.server.empty()) {
+    transport = MakeHttpTransport(o.server, o.token, config.upload.timeout_s);
   }
-  if (args.Has("prior")) {
-    prior = std::make_unique<FilePriorSource>(args.Get("prior"), config.registration.prior_voxel_m);
+  if (!o.prior.empty()) {
+    prior = std::make_unique<FilePriorSource>(o.prior, config.registration.prior_voxel_m);
   } else {
     prior = std::make_unique<ServerPriorSource>(transport.get(), out + "/prior_cache", config.registration.prior_voxel_m);
   }
 
   PipelineInputs in;
-  in.sequence_dir = args.Get("sequence");
+  in.sequence_dir = o.sequence;
   in.odometry = injected ? injected.get() : odometry.get();
   in.prior = prior.get();
   in.keyframe_dir = out + "/keyframes";
-  if (args.Has("initial-pose")) in.initial_T_map_body = ParsePose(args.Get("initial-pose"));
-  if (args.Has("max-frames")) in.max_frames = std::stoi(args.Get("max-frames"));
+  if (!o.initial_pose.empty()) in.initial_T_map_body = ParsePose(o.initial_pose);
+  in.max_frames = o.max_frames;
 
   std::unique_ptr<UploadQueue> queue;
   std::unique_ptr<Uploader> uploader;
   std::atomic<bool> stop{false}, upload_finished{false};
   UploadReport upload_report;
   std::thread upload_thread;
-  if (transport && !args.Has("no-upload")) {
+  if (transport && !o.no_upload) {
     queue = std::make_unique<UploadQueue>(out + "/keyframes.upload_queue");
     // The keyframes' camera: the rectified one when the recorded pair is not (StereoInput).
     const StereoInput input(ReadEurocSequence(in.sequence_dir));
@@ -228,15 +248,16 @@ int RunPipeline(int argc, char** argv) {
 
   if (upload_thread.joinable()) {
     queue->Seal();
-    const double wait_s = std::stod(args.Get("upload-wait", "120"));
+    const double wait_s = o.upload_wait_s;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
+    ProgressLine progress;
     while (!upload_finished && std::chrono::steady_clock::now() < deadline) {
-      std::fprintf(stderr, "\rupload: %zu keyframes pending", queue->PendingCount());
+      progress.Update("upload: " + std::to_string(queue->PendingCount()) + " keyframes pending");
       std::this_thread::sleep_for(std::chrono::milliseconds(500));
     }
     stop = true;
     upload_thread.join();
-    std::fprintf(stderr, "\n");
+    progress.Finish();
     if (!upload_report.committed) {
       std::fprintf(stderr, "upload not finished (%s): resume with 'mapdelta-client upload %s/keyframes --server URL --token T'\n",
                    upload_report.fatal.empty() ? "timed out" : upload_report.fatal.c_str(), out.c_str());

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <thread>
 
 #include "mapdelta/common/error.hpp"
@@ -62,7 +63,24 @@ std::string Uploader::SessionPath() const {
   return "/v1/sessions/" + (id.is_string() ? id.get<std::string>() : id.dump());
 }
 
-bool Uploader::Backoff(double* delay_s, const std::atomic<bool>& stop, UploadReport* report) {
+void Uploader::Succeeded(double* delay_s) {
+  *delay_s = config_.retry_initial_s;
+  failing_since_.reset();
+}
+
+bool Uploader::Backoff(double* delay_s, const std::string& failure, const std::atomic<bool>& stop,
+                       UploadReport* report) {
+  const auto now = std::chrono::steady_clock::now();
+  if (!failing_since_) failing_since_ = now;
+  const double failing_s = std::chrono::duration<double>(now - *failing_since_).count();
+  if (config_.give_up_after_s > 0 && failing_s + *delay_s > config_.give_up_after_s) {
+    report->gave_up = true;
+    report->fatal = "gave up after " + std::to_string(static_cast<int64_t>(std::ceil(failing_s))) +
+                    " s without a successful answer from the server (upload.give_up_after_s " +
+                    std::to_string(static_cast<int64_t>(config_.give_up_after_s)) +
+                    "); last failure: " + failure;
+    return false;
+  }
   ++report->retries;
   // Sleep in small slices so a stop request is honoured promptly.
   const auto until = std::chrono::steady_clock::now() +
@@ -76,6 +94,7 @@ bool Uploader::Backoff(double* delay_s, const std::atomic<bool>& stop, UploadRep
 
 UploadReport Uploader::Run(const std::atomic<bool>& stop) {
   UploadReport report;
+  failing_since_.reset();
   double delay = config_.retry_initial_s;
   while (!stop) {
     const UploadState state = queue_->State();
@@ -100,12 +119,12 @@ UploadReport Uploader::Run(const std::atomic<bool>& stop) {
           break;
         }
         MD_LOG(kInfo, "upload: session " << *queue_->State().session_id << " created");
-        delay = config_.retry_initial_s;
+        Succeeded(&delay);
         continue;
       }
       if (r.Transient()) {
         MD_LOG(kWarn, "upload: create session failed, retrying in " << delay << " s: " << Describe(r));
-        if (!Backoff(&delay, stop, &report)) break;
+        if (!Backoff(&delay, "create session: " + Describe(r), stop, &report)) break;
         continue;
       }
       report.fatal = "create session: " + Describe(r);
@@ -119,16 +138,19 @@ UploadReport Uploader::Run(const std::atomic<bool>& stop) {
       if (r.Ok()) {
         queue_->MarkDone(item->seq);
         ++report.uploaded;
-        delay = config_.retry_initial_s;
+        Succeeded(&delay);
       } else if (r.status == 409 && ErrorCodeOf(r) == "keyframe_conflict") {
         // The server holds other content under this seq; retrying cannot help.
         MD_LOG(kError, "upload: keyframe " << item->seq << " conflicts with the server's: " << Describe(r));
         queue_->MarkDone(item->seq);
         ++report.conflicts;
+        Succeeded(&delay);  // the server answered
       } else if (r.Transient()) {
         MD_LOG(kWarn, "upload: keyframe " << item->seq << " failed, retrying in " << delay
                                           << " s: " << Describe(r));
-        if (!Backoff(&delay, stop, &report)) break;
+        if (!Backoff(&delay, "keyframe " + std::to_string(item->seq) + ": " + Describe(r), stop,
+                     &report))
+          break;
       } else {
         report.fatal = "keyframe " + std::to_string(item->seq) + ": " + Describe(r);
         break;
@@ -149,7 +171,7 @@ UploadReport Uploader::Run(const std::atomic<bool>& stop) {
     }
     if (r.Transient()) {
       MD_LOG(kWarn, "upload: commit failed, retrying in " << delay << " s: " << Describe(r));
-      if (!Backoff(&delay, stop, &report)) break;
+      if (!Backoff(&delay, "commit: " + Describe(r), stop, &report)) break;
       continue;
     }
     report.fatal = "commit: " + Describe(r);

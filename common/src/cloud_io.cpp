@@ -10,6 +10,7 @@
 
 #include "cloud_readers.hpp"
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/las_io.hpp"
 
 namespace mapdelta {
 namespace {
@@ -24,9 +25,15 @@ std::string Extension(const std::string& path) {
 
 PointCloud ReadCloud(const std::string& path) {
   const std::string ext = Extension(path);
-  if (ext != ".pcd" && ext != ".ply") {
+  if (ext == ".laz") {
     throw Error(ErrorCode::kUnsupported,
-                path + ": unsupported cloud format '" + ext + "' (expected .pcd or .ply)");
+                path +
+                    ": LAZ (compressed LAS) is not supported: decompress it to .las "
+                    "first (e.g. laszip); see las_io.hpp");
+  }
+  if (ext != ".pcd" && ext != ".ply" && ext != ".las") {
+    throw Error(ErrorCode::kUnsupported,
+                path + ": unsupported cloud format '" + ext + "' (expected .pcd, .ply or .las)");
   }
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
@@ -37,11 +44,20 @@ PointCloud ReadCloud(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (in.bad()) throw Error(ErrorCode::kIo, path + ": read failed");
+  if (ext == ".las") return ParseLas(bytes, path);
   return ext == ".pcd" ? detail::ParsePcd(bytes, path) : detail::ParsePly(bytes, path);
 }
 
 void WriteCloud(const std::string& path, const PointCloud& cloud) {
   const std::string ext = Extension(path);
+  if (ext == ".las") {
+    const std::string bytes = EncodeLas(cloud);
+    std::ofstream out(path, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    if (!out) throw Error(ErrorCode::kIo, path + ": could not write cloud");
+    return;
+  }
   pcl::PointCloud<pcl::PointXYZ> pcl_cloud;
   pcl_cloud.resize(cloud.size());
   for (size_t i = 0; i < cloud.size(); ++i) {
@@ -64,7 +80,7 @@ void WriteCloud(const std::string& path, const PointCloud& cloud) {
     status = pcl::io::savePLYFileBinary(path, pcl_cloud);
   } else {
     throw Error(ErrorCode::kUnsupported,
-                path + ": unsupported cloud format '" + ext + "' (expected .pcd or .ply)");
+                path + ": unsupported cloud format '" + ext + "' (expected .pcd, .ply or .las)");
   }
   if (status < 0) throw Error(ErrorCode::kIo, path + ": could not write cloud");
 }

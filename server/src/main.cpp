@@ -9,25 +9,29 @@
 #include <thread>
 
 #include "auth.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/server/config.hpp"
 #include "mapdelta/server/http_server.hpp"
 #include "mapdelta/server/map_service.hpp"
+#include "web_root.hpp"
 
 namespace md = mapdelta;
 namespace mds = mapdelta::server;
+namespace cli = mapdelta::cli;
 
 namespace {
 
-constexpr const char* kUsage = R"(mapdelta-server: crowdsourced point-cloud map-update server (REST, SQLite).
+constexpr const char* kUsage =
+    R"(mapdelta-server: crowdsourced point-cloud map-update server (REST, SQLite).
 
 Usage:
   mapdelta-server serve        --config FILE [--port N] [--web-root DIR]
   mapdelta-server token create --config FILE --role vehicle|reader|admin --name NAME
   mapdelta-server token revoke --config FILE --id TOKEN_ID
   mapdelta-server token list   --config FILE
-  mapdelta-server import-prior --config FILE --cloud FILE.pcd|.ply [--note TEXT]
+  mapdelta-server import-prior --config FILE --cloud FILE.pcd|.ply|.las [--note TEXT]
   mapdelta-server check-config --config FILE
   mapdelta-server --help
 
@@ -37,54 +41,19 @@ serve         Runs the HTTP API (see /v1/openapi.yaml). Prints "listening on HOS
 token create  Prints the new token's id and secret. The secret is shown only once; only
               its SHA-256 is stored.
 token revoke  Revokes a token by id (requests with it get 401 from then on).
-import-prior  Imports a PCD/PLY cloud as a new prior version (same as POST /v1/admin/prior).
+import-prior  Imports a PCD, PLY or LAS cloud as a new prior version (over HTTP:
+              POST /v1/admin/prior, PCD/PLY).
 check-config  Validates the config (all problems at once) and prints the effective config.
 
---port N overrides http.port (0 picks a free port). --web-root DIR serves the web map's
-static files at / (default: the built web/dist; "" turns it off). Exit codes: 0 ok,
-1 runtime error, 2 usage or config error.
+Run 'mapdelta-server COMMAND --help' for a command's options. Exit codes: 0 success,
+1 runtime failure or unreadable/malformed input, 2 usage or configuration error.
 )";
 
-struct Args {
-  bool help = false;
-  std::vector<std::string> positional;
-  std::map<std::string, std::string> options;
-};
-
-Args ParseArgs(int argc, char** argv) {
-  Args a;
-  for (int i = 1; i < argc; ++i) {
-    std::string s = argv[i];
-    if (s == "--help" || s == "-h") {
-      a.help = true;
-    } else if (s.rfind("--", 0) == 0) {
-      if (i + 1 >= argc) {
-        std::string message = "option ";  // built in steps: GCC 12 warns falsely on "x" + s
-        message += s;
-        message += " needs a value";
-        throw md::Error(md::ErrorCode::kInvalidArgument, message);
-      }
-      const std::string value(argv[++i]);
-      a.options.insert_or_assign(s.substr(2), value);
-    } else {
-      a.positional.push_back(s);
-    }
-  }
-  return a;
-}
-
-std::string Required(const Args& a, const std::string& name) {
-  auto it = a.options.find(name);
-  if (it == a.options.end()) throw md::Error(md::ErrorCode::kInvalidArgument, "missing --" + name);
-  return it->second;
-}
-
-void CheckKnown(const Args& a, std::initializer_list<const char*> known) {
-  for (const auto& [k, v] : a.options) {
-    if (std::find_if(known.begin(), known.end(), [&](const char* n) { return k == n; }) == known.end()) {
-      throw md::Error(md::ErrorCode::kInvalidArgument, "unknown option --" + k);
-    }
-  }
+// The options every command reads: the config file.
+cli::Parser& AddConfigOption(cli::Parser& cli, std::string* path) {
+  return cli
+      .Option("config", path, "server configuration (YAML, see config/server.example.yaml)", "FILE")
+      .Require({"config"});
 }
 
 // Log lines as JSON objects (one per line) or plain text, on stderr.
@@ -100,10 +69,29 @@ void InstallLogSink(const mds::LogConfig& c) {
   });
 }
 
-int Serve(const Args& a) {
-  CheckKnown(a, {"config", "port", "web-root"});
-  mds::ServerConfig config = mds::LoadServerConfig(Required(a, "config"));
-  if (a.options.count("port")) config.http.port = std::stoi(a.options.at("port"));
+int Serve(const std::vector<std::string>& args) {
+  std::string config_path, web_root;
+  int port_override = 0;
+  cli::Parser cli(
+      "mapdelta-server serve",
+      "Runs the HTTP API (see /v1/openapi.yaml). Prints \"listening on HOST:PORT\" to stdout once\n"
+      "ready. SIGTERM/SIGINT: stop accepting, finish in-flight requests, pause the running job\n"
+      "between tiles (it resumes at the next start), exit 0.");
+  AddConfigOption(cli, &config_path)
+      .Option("port", &port_override, "overrides http.port (0 picks a free port)")
+      .Option(
+          "web-root", &web_root,
+          "serves the web map's static files at / (overrides http.web_root; \"\" or off: no page)",
+          "DIR")
+      .Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(args, std::cout)) return cli::kExitOk;
+  if (cli.Given("port") && (port_override < 0 || port_override > 65535)) {
+    cli::FailUsage(cli.program(),
+                   "--port: expected 0..65535, got " + std::to_string(port_override));
+  }
+  mds::ServerConfig config = mds::LoadServerConfig(config_path);
+  if (cli.Given("port")) config.http.port = port_override;
+  if (cli.Given("web-root")) config.http.web_root = web_root.empty() ? "off" : web_root;
   InstallLogSink(config.log);
   MD_LOG(kInfo, "effective config:\n" << mds::DumpServerConfig(config));
 
@@ -116,9 +104,13 @@ int Serve(const Args& a) {
 
   mds::MapService service(config, mds::OpenSqliteStorage(config.storage.database));
   mds::HttpServer http(service);
-  const std::string web_root = a.options.count("web-root") ? a.options.at("web-root") : MAPDELTA_WEB_ROOT;
-  if (!web_root.empty() && !http.MountWebRoot(web_root)) {
-    MD_LOG(kWarn, "web map not served: " << web_root << " is not a directory (tools/build-web.sh builds it)");
+  const std::string page = mds::ResolveWebRoot(config.http.web_root, mds::CurrentExecutablePath(),
+                                               MAPDELTA_BUILD_DIR, MAPDELTA_SOURCE_WEB_DIST);
+  if (!page.empty() && !http.MountWebRoot(page)) {
+    MD_LOG(kWarn,
+           "web map not served: " << page << " is not a directory (tools/build-web.sh builds it)");
+  } else if (!page.empty()) {
+    MD_LOG(kInfo, "web map served from " << page);
   }
   const int port = http.Bind(config.http.listen_address, config.http.port);
   service.StartJobWorker();
@@ -141,88 +133,122 @@ int Serve(const Args& a) {
   return 0;
 }
 
-int Token(const Args& a) {
-  if (a.positional.size() < 2) throw md::Error(md::ErrorCode::kInvalidArgument, "token needs create, revoke or list");
-  const std::string verb = a.positional[1];
-  mds::ServerConfig config = mds::LoadServerConfig(Required(a, "config"));
+// The token commands' storage, opened with only warnings logged (their output is the answer).
+auto OpenStorageForAdmin(const std::string& config_path) {
+  const mds::ServerConfig config = mds::LoadServerConfig(config_path);
   InstallLogSink(mds::LogConfig{"warn", "text"});
-  auto storage = mds::OpenSqliteStorage(config.storage.database);
-  if (verb == "create") {
-    CheckKnown(a, {"config", "role", "name"});
-    const auto role = mds::ParseRole(Required(a, "role"));
-    if (!role) throw md::Error(md::ErrorCode::kInvalidArgument, "--role must be vehicle, reader or admin");
-    const auto t = mds::CreateToken(*storage, Required(a, "name"), *role, mds::NowMs());
-    std::printf("id: %s\nrole: %s\nname: %s\ntoken: %s\n", t.record.id.c_str(),
-                std::string(mds::ToString(*role)).c_str(), t.record.name.c_str(), t.secret.c_str());
-    return 0;
-  }
-  if (verb == "revoke") {
-    CheckKnown(a, {"config", "id"});
-    const std::string id = Required(a, "id");
-    if (!storage->RevokeToken(id, mds::NowMs())) {
-      throw md::Error(md::ErrorCode::kNotFound, "no active token with id " + id);
-    }
-    std::printf("revoked %s\n", id.c_str());
-    return 0;
-  }
-  if (verb == "list") {
-    CheckKnown(a, {"config"});
-    for (const auto& t : storage->ListTokens()) {
-      std::printf("%s  %-7s  %-8s  %s\n", t.id.c_str(), std::string(mds::ToString(t.role)).c_str(),
-                  t.revoked_ms ? "revoked" : "active", t.name.c_str());
-    }
-    return 0;
-  }
-  throw md::Error(md::ErrorCode::kInvalidArgument, "unknown token command '" + verb + "'");
+  return mds::OpenSqliteStorage(config.storage.database);
 }
 
-int ImportPrior(const Args& a) {
-  CheckKnown(a, {"config", "cloud", "note"});
-  mds::ServerConfig config = mds::LoadServerConfig(Required(a, "config"));
+int TokenCreate(const std::vector<std::string>& args) {
+  std::string config_path, role_name, name;
+  cli::Parser cli("mapdelta-server token create",
+                  "Prints the new token's id and secret. The secret is shown only once; only its "
+                  "SHA-256 is stored.");
+  AddConfigOption(cli, &config_path)
+      .Option("role", &role_name, "what the token may do")
+      .Choices("role", {"vehicle", "reader", "admin"})
+      .Option("name", &name, "who or what holds it", "NAME")
+      .Require({"role", "name"})
+      .Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(args, std::cout)) return cli::kExitOk;
+  auto storage = OpenStorageForAdmin(config_path);
+  const auto role = mds::ParseRole(role_name);  // one of the choices above
+  const auto t = mds::CreateToken(*storage, name, *role, mds::NowMs());
+  std::printf("id: %s\nrole: %s\nname: %s\ntoken: %s\n", t.record.id.c_str(),
+              std::string(mds::ToString(*role)).c_str(), t.record.name.c_str(), t.secret.c_str());
+  return 0;
+}
+
+int TokenRevoke(const std::vector<std::string>& args) {
+  std::string config_path, id;
+  cli::Parser cli("mapdelta-server token revoke",
+                  "Revokes a token by id (requests with it get 401 from then on).");
+  AddConfigOption(cli, &config_path)
+      .Option("id", &id, "the token's id", "TOKEN_ID")
+      .Require({"id"});
+  cli.Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(args, std::cout)) return cli::kExitOk;
+  auto storage = OpenStorageForAdmin(config_path);
+  if (!storage->RevokeToken(id, mds::NowMs()))
+    throw md::Error(md::ErrorCode::kNotFound, "no active token with id " + id);
+  std::printf("revoked %s\n", id.c_str());
+  return 0;
+}
+
+int TokenList(const std::vector<std::string>& args) {
+  std::string config_path;
+  cli::Parser cli("mapdelta-server token list",
+                  "Lists every token: id, role, active or revoked, name.");
+  AddConfigOption(cli, &config_path).Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(args, std::cout)) return cli::kExitOk;
+  auto storage = OpenStorageForAdmin(config_path);
+  for (const auto& t : storage->ListTokens()) {
+    std::printf("%s  %-7s  %-8s  %s\n", t.id.c_str(), std::string(mds::ToString(t.role)).c_str(),
+                t.revoked_ms ? "revoked" : "active", t.name.c_str());
+  }
+  return 0;
+}
+
+int ImportPrior(const std::vector<std::string>& args) {
+  std::string config_path, path, note;
+  cli::Parser cli("mapdelta-server import-prior",
+                  "Imports a PCD, PLY or LAS cloud as a new prior version (over HTTP: POST\n"
+                  "/v1/admin/prior, PCD/PLY).");
+  AddConfigOption(cli, &config_path)
+      .Option("cloud", &path, "the prior map, in map coordinates", "FILE.pcd|.ply|.las")
+      .Option("note", &note, "recorded with the version (default: the file name)", "TEXT")
+      .Require({"cloud"})
+      .Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(args, std::cout)) return cli::kExitOk;
+  const mds::ServerConfig config = mds::LoadServerConfig(config_path);
   InstallLogSink(mds::LogConfig{"info", "text"});
   mds::MapService service(config, mds::OpenSqliteStorage(config.storage.database));
-  const std::string path = Required(a, "cloud");
   std::fprintf(stderr, "importing %s ...\n", path.c_str());
-  const auto note = a.options.count("note") ? a.options.at("note") : std::filesystem::path(path).filename().string();
+  if (!cli.Given("note")) note = std::filesystem::path(path).filename().string();
   std::printf("%s\n", service.ImportPriorFile(path, note).dump(2).c_str());
   return 0;
+}
+
+int CheckConfig(const std::vector<std::string>& args) {
+  std::string config_path;
+  cli::Parser cli("mapdelta-server check-config",
+                  "Validates the config (all problems at once) and prints the effective config.");
+  AddConfigOption(cli, &config_path).Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(args, std::cout)) return cli::kExitOk;
+  std::printf("%s\n", mds::DumpServerConfig(mds::LoadServerConfig(config_path)).c_str());
+  return 0;
+}
+
+// "token create ..." -> ("token create", its options); "serve ..." -> ("serve", options).
+int Dispatch(const std::string& command, const std::vector<std::string>& args) {
+  if (command == "serve") return Serve(args);
+  if (command == "token create") return TokenCreate(args);
+  if (command == "token revoke") return TokenRevoke(args);
+  if (command == "token list") return TokenList(args);
+  if (command == "import-prior") return ImportPrior(args);
+  if (command == "check-config") return CheckConfig(args);
+  cli::FailUsage("mapdelta-server", "unknown command '" + command + "'");
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  Args args;
-  try {
-    args = ParseArgs(argc, argv);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n\n%s", e.what(), kUsage);
-    return 2;
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty() || args[0] == "--help" || args[0] == "-h") {
+    std::fprintf(args.empty() ? stderr : stdout, "%s", kUsage);
+    return args.empty() ? cli::kExitUsage : cli::kExitOk;
   }
-  if (args.help || args.positional.empty()) {
-    std::printf("%s", kUsage);
-    return args.help ? 0 : 2;
-  }
-  const std::string& command = args.positional[0];
-  try {
-    if (command == "serve") return Serve(args);
-    if (command == "token") return Token(args);
-    if (command == "import-prior") return ImportPrior(args);
-    if (command == "check-config") {
-      CheckKnown(args, {"config"});
-      std::printf("%s\n", mds::DumpServerConfig(mds::LoadServerConfig(Required(args, "config"))).c_str());
-      return 0;
+  // Two-word commands ("token create") are one command to the dispatcher.
+  const bool two_words = args[0] == "token" && args.size() > 1 && args[1].rfind("-", 0) != 0;
+  const std::string command = two_words ? args[0] + " " + args[1] : args[0];
+  const std::vector<std::string> options(args.begin() + (two_words ? 2 : 1), args.end());
+  return cli::RunMain("mapdelta-server " + command, [&] {
+    try {
+      return Dispatch(command, options);
+    } catch (const mds::ApiError& e) {
+      // The facade's errors carry their own code (e.g. invalid_cloud): a runtime failure.
+      throw md::Error(md::ErrorCode::kIo, std::string(mds::Info(e.code()).name) + ": " + e.what());
     }
-    std::fprintf(stderr, "error: unknown command '%s'\n\n%s", command.c_str(), kUsage);
-    return 2;
-  } catch (const mds::ApiError& e) {
-    std::fprintf(stderr, "error: %s: %s\n", std::string(mds::Info(e.code()).name).c_str(), e.what());
-    return 1;
-  } catch (const md::Error& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    const bool usage = e.code() == md::ErrorCode::kInvalidArgument || e.code() == md::ErrorCode::kParse;
-    return usage ? 2 : 1;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
-  }
+  });
 }

@@ -2,8 +2,10 @@
 
 #include <cmath>
 #include <functional>
+#include <map>
 #include <sstream>
 
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/error.hpp"
 
 namespace mapdelta::sim {
@@ -115,78 +117,87 @@ const std::vector<Option>& Options() {
   return options;
 }
 
+// Declares mapdelta-sim's options: the fixed ones, and every SimConfig field as a string
+// that ParseArgs applies on top of the preset (so the order on the command line does not matter).
+void DeclareOptions(cli::Parser* cli, CliArgs* out, std::string* preset,
+                    std::map<std::string, std::string>* values) {
+  cli->Option("preset", preset,
+              "tiny (small scene, 400x225, ~25 s, for tests and the demo) or paper (250x250x40 m, "
+              "800x450, "
+              "30 Hz, ~700 m / 170 s, all six sequences) or euroc (EuRoC MH_01 sensors: 752x480 "
+              "distorted "
+              "stereo, 20 Hz, 200 Hz IMU; 12 s, S1_01)",
+              "NAME")
+      .Choices("preset", {"tiny", "paper", "euroc"})
+      .Option("out", &out->out_dir, "output folder (layout: docs/conventions.md), required", "DIR")
+      .Option("log-level", &out->log_level, "log level")
+      .Choices("log-level", {"debug", "info", "warn", "error", "off"})
+      .Flag("quiet", &out->quiet, "no progress bar");
+  const SimConfig tiny = PresetConfig("tiny");
+  const SimConfig paper = PresetConfig("paper");
+  for (const Option& o : Options()) {
+    cli->Option(o.name, &(*values)[o.name],
+                o.help + " [tiny " + o.get(tiny) + " / paper " + o.get(paper) + "]", "V");
+  }
+  cli->Footer(
+      "Every preset value can be overridden; [defaults] are the tiny and paper presets'.\n" +
+      std::string(cli::kExitCodesFooter));
+}
+
+constexpr const char* kProgram = "mapdelta-sim";
+constexpr const char* kDescription =
+    "mapdelta-sim: generate the change-detection dataset (scenes original/S1/S2, stereo+IMU "
+    "sequences).\n"
+    "'mapdelta-sim renoise --help': new sensor noise on a clean dataset.";
+
 }  // namespace
 
-CliArgs ParseArgs(const std::vector<std::string>& args) {
+CliArgs ParseArgs(const std::vector<std::string>& args, const CliExtension* extension) {
   CliArgs out;
-  std::vector<std::string> errors;
-  // The preset sets the defaults; find it first so overrides apply on top, in any order.
   std::string preset = "tiny";
-  for (size_t i = 0; i + 1 < args.size(); ++i) {
-    if (args[i] == "--preset") preset = args[i + 1];
+  std::map<std::string, std::string> values;
+  const std::string program = extension ? extension->program : kProgram;
+  cli::Parser cli(program, extension ? extension->description : kDescription);
+  DeclareOptions(&cli, &out, &preset, &values);
+  if (extension) extension->declare(&cli);
+  std::ostringstream help;  // main prints HelpText()
+  if (!cli.Parse(args, help)) {
+    out.help = true;
+    return out;
   }
-  try {
-    out.config = PresetConfig(preset);
-  } catch (const Error& e) {
-    errors.push_back(e.what());
-  }
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") { out.help = true; continue; }
-    if (a == "--quiet") { out.quiet = true; continue; }
-    if (a.rfind("--", 0) != 0) { errors.push_back("unexpected argument '" + a + "'"); continue; }
-    const std::string name = a.substr(2);
-    if (i + 1 >= args.size()) { errors.push_back(a + " needs a value"); continue; }
-    const std::string value = args[++i];
-    if (name == "preset") continue;
-    if (name == "out") { out.out_dir = value; continue; }
-    if (name == "log-level") { out.log_level = value; continue; }
-    bool known = false;
-    for (const Option& o : Options()) {
-      if (o.name != name) continue;
-      known = true;
-      if (!o.set(out.config, value)) errors.push_back("--" + name + ": bad value '" + value + "'");
+  // Values on top of the preset, every bad one reported at once.
+  out.config = PresetConfig(preset);
+  std::vector<std::string> errors;
+  for (const Option& o : Options()) {
+    if (cli.Given(o.name) && !o.set(out.config, values[o.name])) {
+      errors.push_back("--" + o.name + ": bad value '" + values[o.name] + "'");
     }
-    if (!known) errors.push_back("unknown option " + a + " (see --help)");
   }
-  if (!out.help) {
-    if (out.out_dir.empty()) errors.push_back("--out DIR is required");
-    if (errors.empty()) {
-      try {
-        Validate(out.config);
-      } catch (const Error& e) {
-        errors.push_back(e.what());
-      }
+  if (out.out_dir.empty()) errors.push_back("missing --out");
+  if (errors.empty()) {
+    try {
+      Validate(out.config);
+    } catch (const Error& e) {
+      errors.push_back(e.what());
     }
   }
   if (!errors.empty()) {
     std::string msg;
     for (const auto& e : errors) msg += (msg.empty() ? "" : "\n") + e;
-    throw Error(ErrorCode::kInvalidArgument, msg);
+    cli::FailUsage(program, msg);
   }
   return out;
 }
 
-std::string HelpText(const std::string& preset) {
-  const SimConfig c = PresetConfig(preset);
-  const SimConfig paper = PresetConfig("paper");
-  std::ostringstream o;
-  o << "mapdelta-sim: generate the change-detection dataset (scenes original/S1/S2, stereo+IMU sequences)\n\n"
-       "usage: mapdelta-sim --preset tiny|paper|euroc --out DIR [--seed N] [--noise none|small|big|euroc] [--<option> VALUE]...\n\n"
-       "  --preset NAME       tiny (small scene, 400x225, ~25 s, for tests and the demo) or paper\n"
-       "                      (250x250x40 m, 800x450, 30 Hz, ~700 m / 170 s, all six sequences) or euroc\n"
-       "                      (EuRoC MH_01 sensors: 752x480 distorted stereo, 20 Hz, 200 Hz IMU; 12 s, S1_01)\n"
-       "  --out DIR           output folder (layout: docs/conventions.md)\n"
-       "  --log-level LEVEL   debug | info | warn | error | off (default info)\n"
-       "  --quiet             no progress bar\n"
-       "  --help              this text\n\n"
-       "Every preset value can be overridden (default: tiny / paper):\n";
-  for (const Option& opt : Options()) {
-    std::string head = "  --" + opt.name + " V";
-    head.resize(std::max<size_t>(head.size() + 1, 22), ' ');
-    o << head << opt.help << " [" << opt.get(c) << " / " << opt.get(paper) << "]\n";
-  }
-  return o.str();
+std::string HelpText(const CliExtension* extension) {
+  CliArgs out;
+  std::string preset;
+  std::map<std::string, std::string> values;
+  cli::Parser cli(extension ? extension->program : kProgram,
+                  extension ? extension->description : kDescription);
+  DeclareOptions(&cli, &out, &preset, &values);
+  if (extension) extension->declare(&cli);
+  return cli.Help();
 }
 
 }  // namespace mapdelta::sim

@@ -1,82 +1,72 @@
 // Command line of `mapdelta-sim renoise` (see renoise.hpp).
-#include <cstdlib>
 #include <sstream>
 
-#include "mapdelta/common/error.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/sim/renoise.hpp"
 
 namespace mapdelta::sim {
 
+namespace {
+
+constexpr const char* kProgram = "mapdelta-sim renoise";
+
+void DeclareOptions(cli::Parser* cli, RenoiseOptions* o, std::string* noise, std::string* sequences,
+                    bool* quiet) {
+  cli->Option("from", &o->from_dir, "dataset written by mapdelta-sim with --noise none", "CLEAN")
+      .Option("out", &o->out_dir, "new dataset (may be the same path as a previous renoise output)",
+              "DIR")
+      .Option("noise", noise, "sensor noise preset")
+      .Choices("noise", {"none", "small", "big"})
+      .Option("seed", &o->seed, "noise seed; the city and trajectories keep CLEAN's seed")
+      .Option("sequences", sequences, "comma-separated sequences (default: all in CLEAN/sequences)",
+              "A,B")
+      .Option("threads", &o->threads, "worker threads (0: all cores)")
+      .Flag("quiet", quiet, "no progress")
+      .Require({"from", "out"})
+      .Footer(cli::kExitCodesFooter);
+}
+
+constexpr const char* kDescription =
+    "New sensor noise on a dataset rendered with --noise none, without rendering again: image "
+    "noise on\n"
+    "the stored clean images, IMU noise on the clean IMU samples, ground truth biases rewritten, "
+    "scenes\n"
+    "and depth0 hard-linked. With --seed equal to the clean dataset's seed the output is "
+    "byte-identical\n"
+    "to 'mapdelta-sim --noise NAME' directly.";
+
+}  // namespace
+
 std::string RenoiseHelpText() {
-  return "usage: mapdelta-sim renoise --from CLEAN --out DIR [--noise small|big|none] [--seed N]\n"
-         "                            [--sequences A,B] [--threads N] [--quiet]\n"
-         "  New sensor noise on a dataset rendered with --noise none, without rendering again:\n"
-         "  image noise on the stored clean images, IMU noise on the clean IMU samples, ground\n"
-         "  truth biases rewritten, scenes and depth0 hard-linked. With --seed equal to the clean\n"
-         "  dataset's seed the output is byte-identical to 'mapdelta-sim --noise NAME' directly.\n"
-         "  --from DIR       dataset written by mapdelta-sim with --noise none\n"
-         "  --out DIR        new dataset (may be the same path as a previous renoise output)\n"
-         "  --noise NAME     none | small | big (default small)\n"
-         "  --seed N         noise seed (default 1); the city and trajectories keep CLEAN's seed\n"
-         "  --sequences L    comma-separated sequences (default: all in CLEAN/sequences)\n"
-         "  --threads N      worker threads (default: all cores)\n"
-         "  --quiet          no progress\n";
+  RenoiseOptions o;
+  std::string noise = "small", sequences;
+  bool quiet = false;
+  cli::Parser cli(kProgram, kDescription);
+  DeclareOptions(&cli, &o, &noise, &sequences, &quiet);
+  return cli.Help();
 }
 
 RenoiseOptions ParseRenoiseArgs(const std::vector<std::string>& args, bool* help, bool* quiet) {
   RenoiseOptions o;
-  *help = false;
+  std::string noise = "small", sequences;
   *quiet = false;
-  std::vector<std::string> problems;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") {
-      *help = true;
-      continue;
-    }
-    if (a == "--quiet") {
-      *quiet = true;
-      continue;
-    }
-    if (i + 1 >= args.size()) {
-      problems.push_back(a + " needs a value");
-      continue;
-    }
-    const std::string v = args[++i];
-    char* end = nullptr;
-    if (a == "--from") {
-      o.from_dir = v;
-    } else if (a == "--out") {
-      o.out_dir = v;
-    } else if (a == "--noise") {
-      if (!ParseNoiseLevel(v, &o.noise)) problems.push_back("--noise '" + v + "': expected none, small or big");
-    } else if (a == "--seed") {
-      const unsigned long long s = std::strtoull(v.c_str(), &end, 10);
-      if (v.empty() || *end != '\0' || v[0] == '-') problems.push_back("--seed '" + v + "': expected a non-negative integer");
-      o.seed = s;
-    } else if (a == "--threads") {
-      const long t = std::strtol(v.c_str(), &end, 10);
-      if (v.empty() || *end != '\0' || t < 0 || t > 1024) problems.push_back("--threads '" + v + "': expected 0..1024");
-      o.threads = static_cast<int>(t);
-    } else if (a == "--sequences") {
-      std::stringstream ss(v);
-      for (std::string s; std::getline(ss, s, ',');) {
-        if (!s.empty()) o.sequences.push_back(s);
-      }
-      if (o.sequences.empty()) problems.push_back("--sequences '" + v + "': empty list");
-    } else {
-      problems.push_back("unknown option '" + a + "'");
-      --i;  // it was not followed by its value
-    }
+  cli::Parser cli(kProgram, kDescription);
+  DeclareOptions(&cli, &o, &noise, &sequences, quiet);
+  std::ostringstream help_text;  // main prints RenoiseHelpText()
+  *help = !cli.Parse(args, help_text);
+  if (*help) return o;
+  ParseNoiseLevel(noise, &o.noise);  // one of the choices above
+  if (o.threads < 0 || o.threads > 1024) {
+    cli::FailUsage(kProgram, "--threads: expected 0..1024, got " + std::to_string(o.threads));
   }
-  if (!*help) {
-    if (o.from_dir.empty()) problems.push_back("--from is required");
-    if (o.out_dir.empty()) problems.push_back("--out is required");
-  }
-  if (!problems.empty()) {
-    std::string msg = "renoise: ";
-    for (size_t i = 0; i < problems.size(); ++i) msg += (i ? "; " : "") + problems[i];
-    throw Error(ErrorCode::kInvalidArgument, msg);
+  if (cli.Given("sequences")) {
+    std::stringstream ss(sequences);
+    for (std::string item; std::getline(ss, item, ',');) {
+      if (!item.empty()) o.sequences.push_back(item);
+    }
+    if (o.sequences.empty())
+      cli::FailUsage(kProgram,
+                     "--sequences: expected a comma-separated list, got '" + sequences + "'");
   }
   return o;
 }

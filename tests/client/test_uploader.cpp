@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -211,6 +212,52 @@ TEST(Uploader, PermanentErrorsStopWithAReason) {
   EXPECT_FALSE(report.committed);
   EXPECT_NE(report.fatal.find("401"), std::string::npos) << report.fatal;
   EXPECT_EQ(queue.PendingCount(), 1u);  // nothing lost: a fixed token can upload it later
+}
+
+TEST(Uploader, GivesUpOnADeadServerAfterTheConfiguredTimeAndKeepsTheQueue) {
+  int dead_port = 0;
+  {
+    FakeServer gone;  // a port that answered once and is closed now: connection refused
+    dead_port = gone.port;
+  }
+  UploadQueue queue(QueueDir("dead"));
+  auto transport =
+      MakeHttpTransport("http://127.0.0.1:" + std::to_string(dead_port), "secret", 1.0);
+  UploadConfig config = FastRetries();
+  config.give_up_after_s = 0.3;
+  Uploader uploader(config, SmallCamera(), &queue, transport.get());
+  uploader.Enqueue(MakeKeyframe(0));
+  queue.Seal();
+  std::atomic<bool> stop{false};
+  const auto start = std::chrono::steady_clock::now();
+  const UploadReport report = uploader.Run(stop);
+  const double took_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_TRUE(report.gave_up);
+  EXPECT_FALSE(report.committed);
+  EXPECT_NE(report.fatal.find("gave up after"), std::string::npos) << report.fatal;
+  EXPECT_NE(report.fatal.find("create session: no response"), std::string::npos) << report.fatal;
+  EXPECT_GT(report.retries, 2u);        // it did retry first
+  EXPECT_LT(took_s, 0.3 + 1.0 + 1.0);   // the deadline, one request timeout, slack
+  EXPECT_EQ(queue.PendingCount(), 1u);  // nothing lost for the next run
+}
+
+TEST(Uploader, AnOutageShorterThanTheGiveUpTimeIsRiddenOut) {
+  FakeServer server;
+  server.fail_next = 3;  // three 503s in a row, then answers
+  UploadQueue queue(QueueDir("short_outage"));
+  auto transport =
+      MakeHttpTransport("http://127.0.0.1:" + std::to_string(server.port), "secret", 1.0);
+  UploadConfig config = FastRetries();
+  config.give_up_after_s = 5.0;
+  Uploader uploader(config, SmallCamera(), &queue, transport.get());
+  uploader.Enqueue(MakeKeyframe(0));
+  queue.Seal();
+  std::atomic<bool> stop{false};
+  const UploadReport report = uploader.Run(stop);
+  EXPECT_TRUE(report.committed) << report.fatal;
+  EXPECT_FALSE(report.gave_up);
+  EXPECT_EQ(report.retries, 3u);
 }
 
 TEST(UploadQueue, RestartDropsHalfWrittenItemsAndKeepsCompleteOnes) {

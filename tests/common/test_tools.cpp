@@ -52,6 +52,17 @@ TEST(Tools, DetectThenEvaluateTheBoxWorld) {
     EXPECT_GE(metrics["paper"][key].get<double>(), 0.95) << key;
   }
   EXPECT_NE(out.str().find("reference_variant: R_new"), std::string::npos);
+  // The same detection written as LAS (map teams' format): the same points, to the millimetre.
+  ASSERT_EQ(tools::RunDetect({"--prior", dir + "/original.pcd", "--keyframes", dir + "/keyframes",
+                              "--out", dir + "/las", "--format", "las"},
+                             out),
+            0);
+  const PointCloud new_pcd = ReadCloud(dir + "/out/new.pcd"),
+                   new_las = ReadCloud(dir + "/las/new.las");
+  ASSERT_EQ(new_las.size(), new_pcd.size());
+  for (size_t i = 0; i < new_pcd.size(); ++i) {
+    EXPECT_LE((new_las[i] - new_pcd[i]).cwiseAbs().maxCoeff(), 0.0006) << i;
+  }
 }
 
 TEST(Tools, AteCommandPrintsEvoNumbersAndJson) {

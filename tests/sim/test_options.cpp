@@ -26,15 +26,23 @@ TEST(SimOptions, PresetThenOverrides) {
 }
 
 TEST(SimOptions, ErrorsAreCollectedAndNamed) {
+  // An unknown option is reported on its own (by common's cli::Parser, as in every program) ...
   try {
-    ParseArgs({"--preset", "tiny", "--widht", "3", "--fx", "abc", "--noise", "huge"});
+    ParseArgs({"--preset", "tiny", "--widht", "3", "--fx", "abc"});
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "unknown option --widht (see 'mapdelta-sim --help')");
+  }
+  // ... bad values of known options all at once, with a missing --out.
+  try {
+    ParseArgs({"--preset", "tiny", "--width", "3.5", "--fx", "abc", "--noise", "huge"});
     FAIL() << "expected an error";
   } catch (const Error& e) {
     const std::string m = e.what();
-    EXPECT_NE(m.find("--widht"), std::string::npos) << m;
-    EXPECT_NE(m.find("--fx"), std::string::npos) << m;
-    EXPECT_NE(m.find("--noise"), std::string::npos) << m;
-    EXPECT_NE(m.find("--out"), std::string::npos) << m;
+    EXPECT_NE(m.find("--width: bad value '3.5'"), std::string::npos) << m;
+    EXPECT_NE(m.find("--fx: bad value 'abc'"), std::string::npos) << m;
+    EXPECT_NE(m.find("--noise: bad value 'huge'"), std::string::npos) << m;
+    EXPECT_NE(m.find("missing --out"), std::string::npos) << m;
   }
   EXPECT_THROW(ParseArgs({"--out", "d", "--sequences", "S3_01"}), Error);
   EXPECT_THROW(ParseArgs({"--out", "d", "--length_m", "1000", "--duration_s", "1"}), Error);  // 1 km/s

@@ -75,7 +75,8 @@ async function main() {
 
     const shotDir = path.join(args.out, 'screenshots');
     const result = await runPageChecks({
-      baseUrl: base, adminToken: tokens.admin, outDir: args.out, log,
+      baseUrl: base, adminToken: tokens.admin, readerToken: tokens.reader, vehicleToken: tokens.vehicle,
+      outDir: args.out, log,
       expected: {
         tile: S.CHANGED_TILE, new_points: newCount, removed_points: rmCount,
         prior_version: list.prior_version, prior_points_before: priorV1.length / 3,

@@ -8,20 +8,48 @@ import { canvasColourCounts, check, launchChromium } from './browser.mjs';
 const CLEAR = [0x1b, 0x1f, 0x23];   // TileView3D clear colour
 const COLOURS = { prior: [0x9e, 0x9e, 0x9e], new: [0x43, 0xa0, 0x47], removed: [0xd8, 0x1b, 0x60], clear: CLEAR };
 
-export async function runPageChecks({ baseUrl, adminToken, expected, outDir, screenshots, log }) {
+// Enters a token in the page's form and waits until the page has judged it (a role badge or
+// an error status).
+async function enterToken(page, token) {
+  await page.fill('#token-input', token);
+  await page.click('#token-form button[type=submit]');
+  await page.waitForFunction(() => document.getElementById('role').textContent !== ''
+    || document.getElementById('status').classList.contains('error'), null, { timeout: 10000 });
+}
+
+export async function runPageChecks({ baseUrl, adminToken, readerToken, vehicleToken, expected, outDir, screenshots, log }) {
   const context = await launchChromium(outDir);
   try {
     const page = context.pages()[0] ?? await context.newPage();
     const errors = [];
     page.on('pageerror', (e) => errors.push(String(e)));
     // Every failed request is an error (the console line alone does not name the URL).
-    page.on('response', (r) => { if (r.status() >= 400) errors.push(`HTTP ${r.status()} ${r.url()}`); });
+    // (401/403 are expected while probing tokens that are not admin's: see step 0.)
+    let probingTokens = false;
+    page.on('response', (r) => {
+      const expectedAuth = probingTokens && (r.status() === 401 || r.status() === 403);
+      if (r.status() >= 400 && !expectedAuth) errors.push(`HTTP ${r.status()} ${r.url()}`);
+    });
     page.on('console', (m) => {
       if (m.type() === 'error' && !m.text().startsWith('Failed to load resource')) errors.push(m.text());
     });
 
     log('chromium started');
     await page.goto(baseUrl + '/', { waitUntil: 'load' });
+    // 0. The page says where tokens come from, and shows a role only for an accepted token.
+    check((await page.textContent('#token-help summary')) === 'where tokens come from', 'token help offered');
+    check((await page.textContent('#token-help')).includes('mapdelta-server token create'),
+      'token help names the command that creates tokens');
+    probingTokens = true;
+    await enterToken(page, 'not-a-token');
+    check((await page.textContent('#role')) === '', 'no role shown for a token the server rejects');
+    check((await page.textContent('#status')).includes('not accepted'), 'a rejected token is said so');
+    await enterToken(page, vehicleToken);
+    check((await page.textContent('#role')) === 'vehicle', 'vehicle token: role vehicle');
+    check((await page.textContent('#status')).includes('can only upload'), 'a vehicle token is said to be upload-only');
+    await enterToken(page, readerToken);
+    check((await page.textContent('#role')) === 'reader', 'reader token: role reader');
+    probingTokens = false;
     await page.fill('#token-input', adminToken);
     await page.click('#token-form button[type=submit]');
     check(await page.evaluate(() => localStorage.getItem('mapdelta.token')) === adminToken,

@@ -8,33 +8,23 @@
 #include <iomanip>
 
 #include "mapdelta/common/change_detection.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
-#include "mapdelta/tools/cli_args.hpp"
 #include "mapdelta/tools/commands.hpp"
 
 namespace mapdelta::tools {
 
-const char* const kDetectUsage = R"(usage:
-  mapdelta-detect --prior CLOUD --keyframes DIR --out DIR [options]
-      Runs the paper's change detection: global cloud from the keyframes (TUM poses T_map_cam +
-      16-bit depth, see docs/conventions.md), optional GICP alignment to the prior, observed
-      area (OctoMap), observed prior cloud (Alg. 1) and new/removed classification (Alg. 2).
-      Writes DIR/global.pcd, DIR/observed.bt, DIR/new.pcd, DIR/removed.pcd, DIR/summary.json.
-  options (paper names, defaults from DESIGN.md):
-      --th-ch M      change threshold th_ch (3.2)
-      --th-d M       max depth th_d for the global cloud and hit rays (50)
-      --th-f M       free-space ray depth th_f for pixels without depth (20)
-      --free-ray-bound W   end each no-depth free ray at the nearest valid depth within
-                     +-W pixels (0 = the paper's rule: always th_f) (0)
-      --rho-o M      octree resolution rho_o (0.8)
-      --voxel M      cloud downsampling before comparing (0.8)
-      --stride N     use every N-th pixel for ray casting (1)
-      --align none|gicp   align the global cloud to the prior first (none)
-  mapdelta-detect --help
-)";
+const char* const kDetectDescription =
+    "Runs the paper's change detection: global cloud from the keyframes (TUM poses T_map_cam +\n"
+    "16-bit depth, see docs/conventions.md), optional GICP alignment to the prior, observed area\n"
+    "(OctoMap), observed prior cloud (Alg. 1) and new/removed classification (Alg. 2). Writes\n"
+    "OUT/global.pcd, OUT/observed.bt, OUT/new.pcd, OUT/removed.pcd (or .ply / .las with "
+    "--format),\n"
+    "OUT/summary.json.\n"
+    "Paper names, defaults from DESIGN.md.";
 
 namespace {
 
@@ -58,26 +48,32 @@ AlignFunction GicpAlignment() {
 }  // namespace
 
 int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
-  const CliArgs cli(args, {"prior", "keyframes", "out", "th-ch", "th-d", "th-f", "free-ray-bound", "rho-o", "voxel",
-                           "stride", "align"},
-                    {});
-  if (!cli.positionals().empty()) {
-    throw Error(ErrorCode::kInvalidArgument, "unexpected argument '" + cli.positionals()[0] + "'");
-  }
   ChangeDetectionParams params;
-  params.th_ch_m = cli.GetDouble("th-ch", params.th_ch_m);
-  params.cloud_voxel_m = cli.GetDouble("voxel", params.cloud_voxel_m);
-  params.observed.max_depth_m = cli.GetDouble("th-d", params.observed.max_depth_m);
-  params.observed.free_ray_m = cli.GetDouble("th-f", params.observed.free_ray_m);
-  params.observed.free_ray_bound_window_px = cli.GetInt("free-ray-bound", 0);
-  params.observed.resolution_m = cli.GetDouble("rho-o", params.observed.resolution_m);
+  std::string prior_path, keyframe_dir, out_dir, align = "none", format = "pcd";
+  cli::Parser cli("mapdelta-detect", kDetectDescription);
+  cli.Option("prior", &prior_path, "prior map cloud (.pcd/.ply/.las)", "CLOUD")
+      .Option("keyframes", &keyframe_dir, "keyframe folder (camera.yaml, poses.txt, depth/)", "DIR")
+      .Option("out", &out_dir, "output folder", "DIR")
+      .Option("th-ch", &params.th_ch_m, "change threshold th_ch [m]", "M")
+      .Option("th-d", &params.observed.max_depth_m,
+              "max depth th_d for the global cloud and hit rays [m]", "M")
+      .Option("th-f", &params.observed.free_ray_m,
+              "free-space ray depth th_f for pixels without depth [m]", "M")
+      .Option("free-ray-bound", &params.observed.free_ray_bound_window_px,
+              "end each no-depth free ray at the nearest valid depth within +-W pixels "
+              "(0 = the paper's rule: always th_f)",
+              "W")
+      .Option("rho-o", &params.observed.resolution_m, "octree resolution rho_o [m]", "M")
+      .Option("voxel", &params.cloud_voxel_m, "cloud downsampling before comparing [m]", "M")
+      .Option("stride", &params.observed.pixel_stride, "use every N-th pixel for ray casting")
+      .Option("align", &align, "align the global cloud to the prior first")
+      .Choices("align", {"none", "gicp"})
+      .Option("format", &format, "file format of the written clouds (global, new, removed)")
+      .Choices("format", {"pcd", "ply", "las"})
+      .Require({"prior", "keyframes", "out"})
+      .Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(args, out)) return cli::kExitOk;
   params.observed.prefilter_voxel_m = params.observed.resolution_m;
-  params.observed.pixel_stride = cli.GetInt("stride", 1);
-  const std::string align = cli.Get("align", "none");
-  if (align != "none" && align != "gicp") throw Error(ErrorCode::kInvalidArgument, "--align must be none or gicp");
-  const std::string prior_path = cli.Require("prior");
-  const std::string keyframe_dir = cli.Require("keyframes");
-  const std::string out_dir = cli.Require("out");
 
   const auto start = std::chrono::steady_clock::now();
   MD_LOG(kInfo, "reading prior " << prior_path);
@@ -103,10 +99,10 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
   const ChangeDetectionResult result = DetectChangesInFolder(
       keyframe_dir, prior, params, align == "gicp" ? GicpAlignment() : AlignFunction(), progress);
   MD_LOG(kInfo, "writing results to " << out_dir);
-  WriteCloud(out_dir + "/global.pcd", result.global);
+  WriteCloud(out_dir + "/global." + format, result.global);
   result.observed.Save(out_dir + "/observed.bt");
-  WriteCloud(out_dir + "/new.pcd", result.changes.new_points);
-  WriteCloud(out_dir + "/removed.pcd", result.changes.removed_points);
+  WriteCloud(out_dir + "/new." + format, result.changes.new_points);
+  WriteCloud(out_dir + "/removed." + format, result.changes.removed_points);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::vector<double> T_row_major;

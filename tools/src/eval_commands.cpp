@@ -5,28 +5,25 @@
 #include <iomanip>
 
 #include "mapdelta/common/ate.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/metrics.hpp"
 #include "mapdelta/common/trajectory_io.hpp"
-#include "mapdelta/tools/cli_args.hpp"
 #include "mapdelta/tools/commands.hpp"
 
 namespace mapdelta::tools {
 
-const char* const kEvalUsage = R"(usage:
+const char* const kEvalUsage = R"(mapdelta-eval: trajectory and change-detection metrics.
+
+usage:
   mapdelta-eval ate REF EST [--align se3|sim3|none] [--max-dt SECONDS] [--json FILE]
-      Absolute trajectory error of EST against REF (TUM or EuRoC CSV, detected), as evo_ape:
-      association within --max-dt (default 0.01 s), Umeyama alignment (default se3),
-      translation errors: rmse mean median std min max sse and the number of pairs.
+      Absolute trajectory error of EST against REF, as evo_ape.
   mapdelta-eval changes --original CLOUD --changed CLOUD --new CLOUD --removed CLOUD
-                        --global CLOUD --observed OCTREE.bt
-                        [--th-ch M] [--rho-p M] [--json FILE]
-      The paper's R_new, P_new, R_rm, P_rm (clouds .pcd/.ply; th_ch default 3.2 m, rho_p
-      0.4 m), and beside them the reference-evaluation variant (radius outlier filter 4 m /
-      16 neighbours; removed ground truth observed through the octree only).
-  mapdelta-eval --help
+                        --global CLOUD --observed OCTREE.bt [--th-ch M] [--rho-p M] [--json FILE]
+      The paper's R_new, P_new, R_rm, P_rm and the reference-evaluation variant.
+  mapdelta-eval COMMAND --help   a command's options
 )";
 
 namespace {
@@ -65,17 +62,22 @@ nlohmann::json MetricsJson(const ChangeMetrics& m) {
 }  // namespace
 
 int RunEvalAte(const std::vector<std::string>& args, std::ostream& out) {
-  const CliArgs cli(args, {"align", "max-dt", "json"}, {});
-  if (cli.positionals().size() != 2) {
-    throw Error(ErrorCode::kInvalidArgument, "ate needs exactly two trajectory files: REF EST");
-  }
   AteParams params;
-  if (!ParseAteAlignment(cli.Get("align", "se3"), &params.alignment)) {
-    throw Error(ErrorCode::kInvalidArgument, "--align must be se3, sim3 or none");
-  }
-  params.max_dt_s = cli.GetDouble("max-dt", 0.01);
-  const std::string& ref_path = cli.positionals()[0];
-  const std::string& est_path = cli.positionals()[1];
+  std::string ref_path, est_path, align = "se3", json_path;
+  cli::Parser cli(
+      "mapdelta-eval ate",
+      "Absolute trajectory error of EST against REF (TUM or EuRoC CSV, detected), as evo_ape:\n"
+      "association within --max-dt, Umeyama alignment, translation errors: rmse mean median\n"
+      "std min max sse and the number of pairs.");
+  cli.Positional("REF", &ref_path, "reference trajectory")
+      .Positional("EST", &est_path, "estimated trajectory")
+      .Option("align", &align, "alignment before comparing")
+      .Choices("align", {"se3", "sim3", "none"})
+      .Option("max-dt", &params.max_dt_s, "association window [s]", "SECONDS")
+      .Option("json", &json_path, "also write the figures as JSON", "FILE")
+      .Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(args, out)) return cli::kExitOk;
+  ParseAteAlignment(align, &params.alignment);  // one of the choices above
   const Trajectory ref = ReadTrajectory(ref_path);
   const Trajectory est = ReadTrajectory(est_path);
   if (ref.empty()) throw Error(ErrorCode::kInvalidArgument, ref_path + ": trajectory has no poses");
@@ -85,30 +87,44 @@ int RunEvalAte(const std::vector<std::string>& args, std::ostream& out) {
       << r.mean << "\nmedian " << r.median << "\nstd    " << r.std << "\nmin    " << r.min
       << "\nmax    " << r.max << "\nsse    " << r.sse << "\n";
   if (params.alignment == AteAlignment::kSim3) out << "scale  " << r.alignment.scale << "\n";
-  if (cli.Has("json")) {
-    WriteJson(cli.Get("json", ""),
-              {{"reference", ref_path}, {"estimate", est_path}, {"align", cli.Get("align", "se3")},
-               {"max_dt_s", params.max_dt_s}, {"pairs", r.pairs}, {"rmse", r.rmse}, {"mean", r.mean},
-               {"median", r.median}, {"std", r.std}, {"min", r.min}, {"max", r.max}, {"sse", r.sse},
-               {"scale", r.alignment.scale}});
+  if (!json_path.empty()) {
+    WriteJson(json_path, {{"reference", ref_path},
+                          {"estimate", est_path},
+                          {"align", align},
+                          {"max_dt_s", params.max_dt_s},
+                          {"pairs", r.pairs},
+                          {"rmse", r.rmse},
+                          {"mean", r.mean},
+                          {"median", r.median},
+                          {"std", r.std},
+                          {"min", r.min},
+                          {"max", r.max},
+                          {"sse", r.sse},
+                          {"scale", r.alignment.scale}});
   }
   return 0;
 }
 
 int RunEvalChanges(const std::vector<std::string>& args, std::ostream& out) {
-  const CliArgs cli(args, {"original", "changed", "new", "removed", "global", "observed", "th-ch",
-                           "rho-p", "json"},
-                    {});
-  if (!cli.positionals().empty()) {
-    throw Error(ErrorCode::kInvalidArgument, "changes takes no positional arguments (got '" +
-                                                 cli.positionals()[0] + "')");
-  }
   MetricsParams params;
-  params.th_ch_m = cli.GetDouble("th-ch", params.th_ch_m);
-  params.rho_p_m = cli.GetDouble("rho-p", params.rho_p_m);
-  // Check every option before the slow loading starts.
-  const std::string paths[] = {cli.Require("original"), cli.Require("changed"), cli.Require("new"),
-                               cli.Require("removed"),  cli.Require("global"),  cli.Require("observed")};
+  std::string paths[6], json_path;
+  cli::Parser cli(
+      "mapdelta-eval changes",
+      "The paper's R_new, P_new, R_rm, P_rm (clouds .pcd/.ply) and beside them the\n"
+      "reference-evaluation variant (radius outlier filter 4 m / 16 neighbours; removed ground\n"
+      "truth observed through the octree only).");
+  cli.Option("original", &paths[0], "original scene (ground truth before the change)", "CLOUD")
+      .Option("changed", &paths[1], "changed scene (ground truth after)", "CLOUD")
+      .Option("new", &paths[2], "detected new points", "CLOUD")
+      .Option("removed", &paths[3], "detected removed points", "CLOUD")
+      .Option("global", &paths[4], "the detector's global cloud P_g", "CLOUD")
+      .Option("observed", &paths[5], "the detector's observed octree", "OCTREE.bt")
+      .Option("th-ch", &params.th_ch_m, "change threshold th_ch [m]", "M")
+      .Option("rho-p", &params.rho_p_m, "metric downsampling rho_p [m]", "M")
+      .Option("json", &json_path, "also write the figures as JSON", "FILE")
+      .Require({"original", "changed", "new", "removed", "global", "observed"})
+      .Footer(cli::kExitCodesFooter);
+  if (!cli.Parse(args, out)) return cli::kExitOk;
   MD_LOG(kInfo, "loading clouds and the observed octree");
   const PointCloud original = ReadNonEmpty(paths[0], "original scene");
   const PointCloud changed = ReadNonEmpty(paths[1], "changed scene");
@@ -126,11 +142,11 @@ int RunEvalChanges(const std::vector<std::string>& args, std::ostream& out) {
     out << name << ": R_new " << m->recall_new << "  P_new " << m->precision_new << "  R_rm "
         << m->recall_removed << "  P_rm " << m->precision_removed << "\n";
   }
-  if (cli.Has("json")) {
-    WriteJson(cli.Get("json", ""), {{"th_ch_m", params.th_ch_m},
-                                    {"rho_p_m", params.rho_p_m},
-                                    {"paper", MetricsJson(paper)},
-                                    {"reference_variant", MetricsJson(variant)}});
+  if (!json_path.empty()) {
+    WriteJson(json_path, {{"th_ch_m", params.th_ch_m},
+                          {"rho_p_m", params.rho_p_m},
+                          {"paper", MetricsJson(paper)},
+                          {"reference_variant", MetricsJson(variant)}});
   }
   return 0;
 }

@@ -113,15 +113,22 @@ export class Api {
 
   job(id) { return this.request(`/v1/admin/jobs/${encodeURIComponent(id)}`); }
 
-  // Admin role probe: only admins may list jobs. 401/403 mean "not admin", anything else is real.
-  async isAdmin() {
-    try {
-      await this.request('/v1/admin/jobs?page_size=1');
-      return true;
-    } catch (e) {
-      if (e instanceof ApiError && (e.status === 401 || e.status === 403)) return false;
-      throw e;
-    }
+  // The token's role, probed with what each role may do: only admins list jobs, readers (and
+  // admins) read changes, vehicles neither. A token the server does not accept (unknown,
+  // revoked) throws the ApiError with status 401, so the page never shows a role for it.
+  async role() {
+    const allowed = async (path) => {
+      try {
+        await this.request(path);
+        return true;
+      } catch (e) {
+        if (e instanceof ApiError && e.status === 403) return false;
+        throw e;
+      }
+    };
+    if (await allowed('/v1/admin/jobs?page_size=1')) return 'admin';
+    if (await allowed('/v1/changes/tiles?bbox=0,0,1,1&page_size=1')) return 'reader';
+    return 'vehicle';
   }
 }
 

@@ -1,7 +1,7 @@
 // Page wiring: token, top view + list of changed tiles in view, tile detail (3D, evidence,
 // versions), admin refresh. Everything comes from the same-origin REST API.
 import './style.css';
-import { Api } from './api.js';
+import { Api, ApiError } from './api.js';
 import { parseCloud } from './cloudparse.js';
 import { legendHtml } from './colors.js';
 import { observedFootprint } from './octomap.js';
@@ -212,16 +212,29 @@ $('refresh-tile').addEventListener('click', async () => {
   $('refresh-tile').disabled = !state.isAdmin;
 });
 
+// The role badge appears only once the server accepted the token (api.role()).
 async function start() {
   const token = localStorage.getItem(TOKEN_KEY);
   $('token-input').value = token ?? '';
-  if (!token) { status('enter a reader or admin token'); return; }
+  $('role').textContent = '';
+  state.isAdmin = false;
+  $('refresh-tile').disabled = true;
+  if (!token) { status('enter a reader or admin token (see "where tokens come from")'); return; }
+  let role;
   try {
-    state.isAdmin = await api.isAdmin();
-    $('role').textContent = state.isAdmin ? 'admin' : 'reader';
+    status('checking the token ...');
+    role = await api.role();
   } catch (e) {
-    status(e.message, true);
+    if (e instanceof ApiError && e.status === 401) {
+      status('token not accepted by the server (unknown or revoked): ask its admin for a reader token', true);
+    } else {
+      status(e.message, true);
+    }
+    return;
   }
+  $('role').textContent = role;
+  state.isAdmin = role === 'admin';
+  if (role === 'vehicle') { status('a vehicle token can only upload: enter a reader or admin token', true); return; }
   await discover();
 }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mapdelta/common/ate.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/log.hpp"
@@ -18,32 +19,6 @@
 #include "report.hpp"
 
 namespace {
-
-const char* kUsage =
-    "usage: mapdelta-vio --sequence DIR --out FRAMES.tum [options]\n"
-    "  --sequence DIR        EuRoC-layout sequence (folder with mav0/, or mav0 itself)\n"
-    "  --out FILE            TUM trajectory of every frame (T_world_body)\n"
-    "  --keyframes-out FILE  TUM trajectory of keyframes (final window estimates)\n"
-    "  --max-frames N        process only the first N stereo frames\n"
-    "  --attitude-out FILE   per-frame roll/pitch/yaw/tilt errors against ground truth (deg)\n"
-    "  --state-out FILE      per-frame speed and IMU biases (t_s |v| bg_xyz ba_xyz keyframe)\n"
-    "  --threads N           Ceres threads (default 1)\n"
-    "  --pipelined           decode + track on a second thread, ahead of the estimator\n"
-    "                        (same estimates, less wall time)\n"
-    "  --set KEY=VALUE       override a VioConfig number: iterations, window, init_frames,\n"
-    "                        init_span (s), init_iterations, analytic (0/1),\n"
-    "                        motion_only (0/1), max_features, klt_window, klt_levels,\n"
-    "                        min_distance, pixel_sigma, huber, parallax, right_other (0/1),\n"
-    "                        covariance (0/1), min_zncc, outlier (sigmas), prediction_gate\n"
-    "                        (sigmas), sigma_ba (m/s^2), sigma_bg (rad/s), init_bias_gate\n"
-    "                        (sigmas),\n"
-    "                        gyro_floor, accel_floor, gyro_walk_floor, accel_walk_floor\n"
-    "                        (IMU noise floors), max_time (s),\n"
-    "                        gauge_free_prior (0/1),\n"
-    "                        init_pnp_points\n"
-    "  --log-level L         debug|info|warn|error (default info)\n"
-    "  --help                this text\n"
-    "Rectified, undistorted stereo is required (as mapdelta-sim writes).\n";
 
 struct Options {
   std::string sequence, out, keyframes_out, attitude_out, state_out;
@@ -99,77 +74,61 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
   return true;
 }
 
-bool Parse(int argc, char** argv, Options* o, std::string* error) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&](std::string* target) {
-      if (i + 1 >= argc) {
-        *error = a + " needs a value";
-        return false;
-      }
-      *target = argv[++i];
-      return true;
-    };
-    std::string v;
-    if (a == "--sequence") { if (!value(&o->sequence)) return false; }
-    else if (a == "--out") { if (!value(&o->out)) return false; }
-    else if (a == "--keyframes-out") { if (!value(&o->keyframes_out)) return false; }
-    else if (a == "--attitude-out") { if (!value(&o->attitude_out)) return false; }
-    else if (a == "--state-out") { if (!value(&o->state_out)) return false; }
-    else if (a == "--log-level") { if (!value(&o->log_level)) return false; }
-    else if (a == "--set") { if (!value(&v)) return false; o->sets.push_back(v); }
-    else if (a == "--pipelined") o->pipelined = true;
-    else if (a == "--max-frames" || a == "--threads") {
-      if (!value(&v)) return false;
-      char* end = nullptr;
-      const long n = std::strtol(v.c_str(), &end, 10);
-      if (*end != '\0' || n < 0) {
-        *error = a + " expects a non-negative integer, got '" + v + "'";
-        return false;
-      }
-      (a == "--max-frames" ? o->max_frames : o->threads) = static_cast<int>(n);
-    } else {
-      *error = "unknown option " + a;
-      return false;
-    }
-  }
-  if (o->sequence.empty() || o->out.empty()) {
-    *error = "--sequence and --out are required";
-    return false;
+// False after --help; throws Error(kInvalidArgument) naming the option.
+bool Parse(int argc, char** argv, Options* o) {
+  mapdelta::cli::Parser cli(
+      "mapdelta-vio",
+      "Stereo-inertial odometry over an EuRoC-layout sequence; writes TUM files and prints\n"
+      "per-stage timing (and ATE against the sequence's ground truth when it has one).\n"
+      "Rectified, undistorted stereo is required (as mapdelta-sim writes).");
+  cli.Option("sequence", &o->sequence, "EuRoC-layout sequence (folder with mav0/, or mav0 itself)",
+             "DIR")
+      .Option("out", &o->out, "TUM trajectory of every frame (T_world_body)", "FILE")
+      .Option("keyframes-out", &o->keyframes_out,
+              "TUM trajectory of keyframes (final window estimates)", "FILE")
+      .Option("max-frames", &o->max_frames, "process only the first N stereo frames (0: all)")
+      .Option("attitude-out", &o->attitude_out,
+              "per-frame roll/pitch/yaw/tilt errors against ground truth (deg)", "FILE")
+      .Option("state-out", &o->state_out,
+              "per-frame speed and IMU biases (t_s |v| bg_xyz ba_xyz keyframe)", "FILE")
+      .Option("threads", &o->threads, "Ceres threads")
+      .Flag("pipelined", &o->pipelined,
+            "decode + track on a second thread, ahead of the estimator (same estimates, less "
+            "wall time)")
+      .Repeated("set", &o->sets,
+                "override a VioConfig number: iterations, window, init_frames, init_span (s), "
+                "init_iterations, analytic (0/1), motion_only (0/1), max_features, klt_window, "
+                "klt_levels, min_distance, pixel_sigma, huber, parallax, right_other (0/1), "
+                "covariance (0/1), min_zncc, outlier (sigmas), prediction_gate (sigmas), sigma_ba "
+                "(m/s^2), sigma_bg (rad/s), init_bias_gate (sigmas), gyro_floor, accel_floor, "
+                "gyro_walk_floor, accel_walk_floor (IMU noise floors), max_time (s), "
+                "gauge_free_prior (0/1), init_pnp_points",
+                "KEY=VALUE")
+      .Option("log-level", &o->log_level, "log level")
+      .Choices("log-level", {"debug", "info", "warn", "error", "off"})
+      .Require({"sequence", "out"})
+      .Footer(mapdelta::cli::kExitCodesFooter);
+  if (!cli.Parse(argc, argv, std::cout)) return false;
+  if (o->max_frames < 0 || o->threads < 0) {
+    mapdelta::cli::FailUsage(cli.program(),
+                             "--max-frames and --threads: expected non-negative integers");
   }
   return true;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) {
-      std::cout << kUsage;
-      return 0;
-    }
-  }
+int Run(int argc, char** argv) {
   Options o;
-  std::string error;
-  if (!Parse(argc, argv, &o, &error)) {
-    std::cerr << "mapdelta-vio: " << error << "\n" << kUsage;
-    return 2;
-  }
-  mapdelta::log::Level level;
-  if (!mapdelta::log::ParseLevel(o.log_level, &level)) {
-    std::cerr << "mapdelta-vio: bad --log-level '" << o.log_level << "'\n";
-    return 2;
-  }
+  if (!Parse(argc, argv, &o)) return mapdelta::cli::kExitOk;
+  mapdelta::log::Level level = mapdelta::log::Level::kInfo;
+  mapdelta::log::ParseLevel(o.log_level, &level);  // one of the parser's choices
   mapdelta::log::SetLevel(level);
-  try {
+  std::string error;
+  {
     const mapdelta::EurocSequence seq = mapdelta::ReadEurocSequence(o.sequence);
     mapdelta::vio::VioConfig config;
     config.solver_threads = std::max(1, o.threads);
     for (const auto& kv : o.sets) {
-      if (!ApplySet(kv, &config, &error)) {
-        std::cerr << "mapdelta-vio: " << error << "\n";
-        return 2;
-      }
+      if (!ApplySet(kv, &config, &error)) mapdelta::cli::FailUsage("mapdelta-vio", error);
     }
     mapdelta::vio::SequenceRunOptions run;
     run.max_frames = o.max_frames;
@@ -240,9 +199,12 @@ int main(int argc, char** argv) {
                   att.max_tilt_early_deg, att.max_tilt_late_deg, att.max_yaw_early_deg,
                   att.max_yaw_late_deg);
     }
-  } catch (const std::exception& e) {
-    std::cerr << "mapdelta-vio: " << e.what() << "\n";
-    return 1;
   }
-  return 0;
+  return mapdelta::cli::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return mapdelta::cli::RunMain("mapdelta-vio", [&] { return Run(argc, argv); });
 }

@@ -1,7 +1,8 @@
 #pragma once
 // Configuration of every client stage: nested structs with defaults and units in the
 // declaration (defaults from shared/DESIGN.md and the paper's reference config). Loaded from
-// YAML in one place; unknown keys and out-of-range values are all reported at once.
+// YAML in one place (src/config.cpp lists every field with its range); unknown keys and
+// out-of-range values are all reported at once.
 #include <string>
 
 namespace mapdelta::client {
@@ -100,7 +101,10 @@ struct UploadConfig {
   std::string vehicle_id = "vehicle";
   double retry_initial_s = 0.2;
   double retry_max_s = 10.0;
-  double timeout_s = 10.0;
+  double timeout_s = 10.0;  // per request
+  // Stop with an error after failing this long without one successful answer (a dead or
+  // unreachable server); the queue keeps everything for the next run. 0 = retry forever.
+  double give_up_after_s = 300.0;
   double depth_scale = 1000.0;
 };
 
@@ -114,8 +118,9 @@ struct ClientConfig {
   UploadConfig upload;
 };
 
-// Reads a YAML file whose top-level keys are the sections above (all optional). Throws
-// Error(kParse) listing every unknown key, wrong type and out-of-range value in one message.
+// Reads a YAML file whose top-level keys are the sections above (all optional), with common's
+// strict reader (config_reader.hpp): throws Error(kInvalidArgument) listing every unknown key,
+// wrong type and out-of-range value in one message (a config error: exit code 2).
 ClientConfig LoadClientConfig(const std::string& path);
 ClientConfig ParseClientConfig(const std::string& yaml_text, const std::string& what);
 // The effective configuration as YAML (loadable by LoadClientConfig).

@@ -4,6 +4,7 @@
 // the queue has none, PUTs the items in seq order (the server wants them in order), retries
 // transient failures with exponential backoff, and commits once the queue is sealed and empty.
 #include <atomic>
+#include <chrono>
 #include <optional>
 #include <string>
 
@@ -23,7 +24,8 @@ struct UploadReport {
   size_t retries = 0;   // transient failures retried
   bool committed = false;
   std::string session_id;
-  std::string fatal;    // non-empty: stopped on a permanent error (auth, bad request)
+  std::string fatal;     // non-empty: stopped on a permanent error (auth, bad request) or gave up
+  bool gave_up = false;  // failed for upload.give_up_after_s without a successful answer
 };
 
 class Uploader {
@@ -39,13 +41,19 @@ class Uploader {
   UploadReport Run(const std::atomic<bool>& stop);
 
  private:
-  bool Backoff(double* delay_s, const std::atomic<bool>& stop, UploadReport* report);
+  // After a transient failure: false to stop (stop requested, or failing for longer than
+  // give_up_after_s, which sets report->fatal), else sleeps and doubles the delay.
+  bool Backoff(double* delay_s, const std::string& failure, const std::atomic<bool>& stop,
+               UploadReport* report);
+  void Succeeded(double* delay_s);
   std::string SessionPath() const;
 
   UploadConfig config_;
   PinholeCamera camera_;
   UploadQueue* queue_;
   HttpTransport* transport_;
+  std::optional<std::chrono::steady_clock::time_point>
+      failing_since_;  // of the current failure streak
 };
 
 }  // namespace mapdelta::client

@@ -1,14 +1,16 @@
 #pragma once
-// PCD and PLY reading/writing (format chosen by extension). Errors name the file.
+// PCD, PLY and LAS reading/writing (format chosen by extension). Errors name the file.
 #include <string>
 
 #include "mapdelta/common/point_cloud.hpp"
 
 namespace mapdelta {
 
-// Reads .pcd or .ply; throws Error(kIo / kParse / kUnsupported) naming the file.
+// Reads .pcd, .ply or .las (1.0-1.4, uncompressed; las_io.hpp); throws Error(kIo / kParse /
+// kUnsupported, also for .laz) naming the file.
 PointCloud ReadCloud(const std::string& path);
-// Writes .pcd (binary) or .ply (binary little-endian); throws Error(kIo).
+// Writes .pcd (binary), .ply (binary little-endian) or .las (1.2, point format 0, mm
+// resolution); throws Error(kIo).
 void WriteCloud(const std::string& path, const PointCloud& cloud);
 
 }  // namespace mapdelta

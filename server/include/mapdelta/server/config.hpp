@@ -1,7 +1,8 @@
 #pragma once
 // The server's one configuration file (YAML). Every key has a default and a unit here;
-// config/server.example.yaml documents each. Unknown keys are errors, and all problems are
-// reported at once in one Error(kParse) whose message lists them.
+// config/server.example.yaml documents each, src/config.cpp gives its range. Read by common's
+// strict reader (config_reader.hpp): unknown keys are errors, and all problems are reported at
+// once in one Error(kInvalidArgument) whose message lists them (exit code 2).
 #include <cstdint>
 #include <string>
 
@@ -16,6 +17,10 @@ struct HttpConfig {
   int64_t max_prior_bytes = int64_t{1} << 30;   // a prior map import
   int read_timeout_s = 30;
   int write_timeout_s = 60;
+  // The web map's static files, served at /: "auto" (next to an installed binary in
+  // ../share/mapdelta/web, or the source tree's web/dist for a binary in its build tree),
+  // "off", or a folder. --web-root overrides it.
+  std::string web_root = "auto";
 };
 
 struct StorageConfig {
@@ -73,7 +78,7 @@ struct ServerConfig {
   ClassifyConfig classify;
 };
 
-// Throws Error(kIo) if unreadable, Error(kParse) listing every problem (unknown keys, types,
+// Throws Error(kInvalidArgument) if unreadable or listing every problem (unknown keys, types,
 // out-of-range values) with its key path.
 ServerConfig LoadServerConfig(const std::string& path);
 // Validates ranges of an in-memory config (used by the loader and by tests).

@@ -1,9 +1,11 @@
 #pragma once
-// Command-line parsing for mapdelta-sim: --preset first, then any SimConfig field as
-// --<field> VALUE. Unknown options and bad values are errors listed all at once.
+// Command-line parsing for mapdelta-sim (common's cli::Parser): --preset, then any SimConfig
+// field as --<field> VALUE on top of it. Bad values are errors listed all at once.
+#include <functional>
 #include <string>
 #include <vector>
 
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/sim/config.hpp"
 
 namespace mapdelta::sim {
@@ -16,9 +18,16 @@ struct CliArgs {
   bool quiet = false;  // no progress bar
 };
 
-// Throws Error(kInvalidArgument) listing every problem.
-CliArgs ParseArgs(const std::vector<std::string>& args);
-// The --help text, with each option's default under `preset`.
-std::string HelpText(const std::string& preset = "tiny");
+// A program that takes mapdelta-sim's options and some of its own (mapdelta-sim-preview).
+struct CliExtension {
+  std::string program;
+  std::string description;
+  std::function<void(cli::Parser*)> declare;  // adds the program's own options
+};
+
+// Throws Error(kInvalidArgument) naming an unknown option, or listing every bad value.
+CliArgs ParseArgs(const std::vector<std::string>& args, const CliExtension* extension = nullptr);
+// The --help text, with each option's default under the tiny and paper presets.
+std::string HelpText(const CliExtension* extension = nullptr);
 
 }  // namespace mapdelta::sim

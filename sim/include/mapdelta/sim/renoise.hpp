@@ -26,7 +26,7 @@ struct RenoiseOptions {
 // Throws Error naming the file and problem (missing file, not noise-free, malformed CSV row).
 void RenoiseDataset(const RenoiseOptions& options, const ProgressFn& progress);
 
-// argv after "renoise" -> options; throws Error(kInvalidArgument) listing every problem.
+// argv after "renoise" -> options; throws Error(kInvalidArgument) naming the option.
 // Sets *help for --help, *quiet for --quiet.
 RenoiseOptions ParseRenoiseArgs(const std::vector<std::string>& args, bool* help, bool* quiet);
 std::string RenoiseHelpText();

@@ -1,14 +1,14 @@
 #pragma once
 // The tools' commands as library functions: main() only converts argv and exceptions.
-// Each returns the process exit code, writes results to `out` and progress to the log.
+// Each returns the process exit code, writes results to `out` and progress to the log, and
+// throws Error(kInvalidArgument) for usage errors (cli::RunMain turns that into exit code 2).
 #include <ostream>
 #include <string>
 #include <vector>
 
 namespace mapdelta::tools {
 
-extern const char* const kEvalUsage;
-extern const char* const kDetectUsage;
+extern const char* const kEvalUsage;  // the command list; each command has its own --help
 
 // mapdelta-eval ate REF EST [--align se3|sim3|none] [--max-dt S] [--json FILE]
 int RunEvalAte(const std::vector<std::string>& args, std::ostream& out);
