@@ -22,7 +22,7 @@ echo "built $(basename "$deb") ($(du -h "$deb" | cut -f1)) in $(( $(date +%s) - 
 [ "$(dpkg-deb -f "$deb" Package)" = mapdelta ] || fail "package name"
 depends=$(dpkg-deb -f "$deb" Depends)
 echo "Depends: $depends"
-for lib in libsqlite3 libpcl-io libopencv-core libceres liboctomap; do
+for lib in libsqlite3 libpcl-io libopencv-core liboctomap libcpp-httplib libyaml-cpp; do
   grep -q "$lib" <<<"$depends" || fail "Depends lacks $lib (dpkg-shlibdeps)"
 done
 
@@ -31,12 +31,12 @@ root=$tmp/root
 dpkg -x "$deb" "$root"
 for f in usr/bin/mapdelta-server usr/bin/mapdelta-client usr/bin/mapdelta-sim usr/bin/mapdelta-eval \
          usr/bin/mapdelta-detect usr/share/mapdelta/web/index.html usr/share/mapdelta/config/server.example.yaml \
-         usr/share/mapdelta/config/client.example.yaml lib/systemd/system/mapdelta-server.service; do
+         usr/share/mapdelta/config/client.example.yaml usr/lib/systemd/system/mapdelta-server.service; do
   [ -e "$root/$f" ] || fail "$f not in the package"
 done
 ls "$root"/usr/share/mapdelta/migrations/001_*.sql >/dev/null || fail "migrations not in the package"
 [ ! -e "$root/usr/share/mapdelta/web/.build-stamp" ] || fail "build stamp packaged"
-unit=$root/lib/systemd/system/mapdelta-server.service
+unit=$root/usr/lib/systemd/system/mapdelta-server.service
 grep -q '^ExecStart=/usr/bin/mapdelta-server serve --config /etc/mapdelta/server.yaml$' "$unit" ||
   fail "unit does not start /usr/bin/mapdelta-server: $(grep ExecStart "$unit")"
 dpkg-deb --ctrl-tarfile "$deb" | tar -t | grep -q postinst || fail "no postinst (service user, /etc config)"

@@ -24,6 +24,8 @@ usage:
                         --global CLOUD --observed OCTREE.bt [--th-ch M] [--rho-p M] [--json FILE]
       The paper's R_new, P_new, R_rm, P_rm and the reference-evaluation variant.
   mapdelta-eval COMMAND --help   a command's options
+
+Exit codes: 0 success, 1 runtime failure or unreadable/malformed input, 2 usage or configuration error.
 )";
 
 namespace {
