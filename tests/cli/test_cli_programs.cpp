@@ -9,6 +9,7 @@
 #include <fstream>
 #include <string>
 
+#include "mapdelta/common/keyframes.hpp"
 #include "support/temp_dir.hpp"
 
 namespace mapdelta::testing {
@@ -154,6 +155,33 @@ TEST_F(CliPrograms, ConfigErrorsExit2AndUnreadableInputExits1) {
                           "ate " + (dir_ / "bad.txt").string() + " " + (dir_ / "bad.txt").string());
   EXPECT_EQ(ate.exit_code, 1) << ate.err;
   EXPECT_NE(ate.err.find("bad.txt:1"), std::string::npos) << ate.err;
+}
+
+TEST_F(CliPrograms, UploadGivesUpOnADeadServerWithProgressLinesAndKeepsTheQueue) {
+  // Two small keyframes; port 9 on loopback (discard) has no listener here: connection refused.
+  KeyframeFolder folder;
+  folder.camera.width = 8;
+  folder.camera.height = 6;
+  folder.camera.fx = folder.camera.fy = 10;
+  folder.camera.cx = 4;
+  folder.camera.cy = 3;
+  for (int i = 0; i < 2; ++i) {
+    Keyframe k;
+    k.t_ns = 1'000'000'000LL + i * 100'000'000LL;
+    k.depth = DepthImage(8, 6);
+    for (auto& d : k.depth.depth_m) d = 2.0f;
+    folder.keyframes.push_back(k);
+  }
+  WriteKeyframeFolder((dir_ / "kf").string(), folder);
+  const Outcome o =
+      Run(MAPDELTA_CLIENT_BIN, "upload " + (dir_ / "kf").string() +
+                                   " --server http://127.0.0.1:9 --token t --give-up-after 1");
+  EXPECT_EQ(o.exit_code, 1) << o.err;
+  EXPECT_NE(o.err.find("mapdelta-client upload: error: gave up after"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("2 keyframes stay queued in"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("upload: 0/2 keyframes sent\n"), std::string::npos) << o.err;
+  EXPECT_EQ(o.err.find('\r'), std::string::npos) << "stderr is a file: whole lines only";
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "kf.upload_queue"));
 }
 
 }  // namespace
