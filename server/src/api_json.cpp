@@ -6,6 +6,23 @@
 
 namespace mapdelta::server {
 
+Json ParseApiJson(std::string_view text, const std::string& what) {
+  // nlohmann's parser callback sees the nesting depth of every value as it is read, so the
+  // cap stops a deep document before it is built.
+  const auto cap_depth = [&what](int depth, Json::parse_event_t, Json&) {
+    if (depth > kMaxJsonDepth) {
+      throw ApiError(ApiCode::kInvalidJson,
+                     what + " nests deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    }
+    return true;
+  };
+  try {
+    return Json::parse(text.begin(), text.end(), cap_depth);
+  } catch (const Json::parse_error& e) {
+    throw ApiError(ApiCode::kInvalidJson, what + " is not valid JSON: " + e.what());
+  }
+}
+
 const Json& Field(const Json& obj, const std::string& name) {
   if (!obj.is_object()) throw ApiError(ApiCode::kInvalidArgument, "expected a JSON object");
   auto it = obj.find(name);

@@ -3,6 +3,7 @@
 // Throws ApiError (kInvalidArgument / kInvalidPose).
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "mapdelta/common/camera.hpp"
 #include "mapdelta/common/keyframes.hpp"
@@ -10,6 +11,13 @@
 #include "mapdelta/server/map_service.hpp"
 
 namespace mapdelta::server {
+
+// Request JSON (a body or a multipart part; `what` names it in errors): throws
+// kInvalidJson when it is not JSON or nests deeper than kMaxJsonDepth. No request needs more
+// than four levels; without a cap a 1 MiB body of '[' builds a document half a million levels
+// deep, which every recursive walk (dump, compare, copy) would take down the stack.
+constexpr int kMaxJsonDepth = 32;
+Json ParseApiJson(std::string_view text, const std::string& what);
 
 // {"width","height","fx","fy","cx","cy"}; checks ranges against the ingest limits.
 PinholeCamera CameraFromJson(const Json& j, const IngestConfig& limits);

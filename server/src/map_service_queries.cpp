@@ -98,9 +98,14 @@ std::vector<double> ParseBbox(const std::string& text) {
   return v;
 }
 
+constexpr int64_t kMaxPage = 1'000'000'000;
+
 void CheckPage(int64_t page, int64_t page_size) {
   if (page < 1) throw ApiError(ApiCode::kInvalidArgument, "page must be >= 1");
   if (page_size < 1 || page_size > 1000) throw ApiError(ApiCode::kInvalidArgument, "page_size must be in [1, 1000]");
+  // The storage offset is (page - 1) * page_size: a page near 2^63 would overflow it.
+  if (page > kMaxPage)
+    throw ApiError(ApiCode::kInvalidArgument, "page must be <= " + std::to_string(kMaxPage));
 }
 
 Json JobToJson(const JobRecord& j) {
