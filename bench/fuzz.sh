@@ -13,11 +13,13 @@ seconds=${1:-60}
 shift || true
 build=${MAPDELTA_FUZZ_BUILD_DIR:-build-fuzz}
 export CCACHE_BASEDIR=$PWD
-CC=clang-14 CXX=clang++-14 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DMAPDELTA_FUZZ=ON -DMAPDELTA_BUILD_BENCH=OFF >/dev/null
-# The shared build lock only when there is something to build.
-if ! cmake --build "$build" --target fuzz_all -- -n 2>/dev/null | grep -q 'no work to do'; then
-  flock /tmp/mapdelta-build.lock nice -n 19 cmake --build "$build" --target fuzz_all -j 2
+if [ "${MAPDELTA_FUZZ_NO_BUILD:-0}" != 1 ]; then  # 1: runs beside another fuzz.sh use its build
+  CC=clang-14 CXX=clang++-14 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DMAPDELTA_FUZZ=ON -DMAPDELTA_BUILD_BENCH=OFF >/dev/null
+  # The shared build lock only when there is something to build.
+  if ! cmake --build "$build" --target fuzz_all -- -n 2>/dev/null | grep -q 'no work to do'; then
+    flock /tmp/mapdelta-build.lock nice -n 19 cmake --build "$build" --target fuzz_all -j 2
+  fi
 fi
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then

@@ -7,10 +7,10 @@
 namespace mapdelta::server {
 
 Json ParseApiJson(std::string_view text, const std::string& what) {
-  // nlohmann's parser callback sees the nesting depth of every value as it is read, so the
-  // cap stops a deep document before it is built.
+  // nlohmann's parser callback sees the nesting depth of every value as it is read (0 for the
+  // outermost value), so the cap stops a deep document before it is built.
   const auto cap_depth = [&what](int depth, Json::parse_event_t, Json&) {
-    if (depth > kMaxJsonDepth) {
+    if (depth >= kMaxJsonDepth) {
       throw ApiError(ApiCode::kInvalidJson,
                      what + " nests deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     }
