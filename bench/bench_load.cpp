@@ -262,7 +262,8 @@ bool DumpChanges(Run& run, const std::string& file) {
             run.options.reader_token);
   if (a.status != 200) return false;
   std::map<std::string, std::string> lines;
-  for (const Json& t : Json::parse(a.body)["tiles"]) {
+  const Json listing = Json::parse(a.body);  // named: a range-for over a temporary's member dangles
+  for (const Json& t : listing["tiles"]) {
     char conf[32];
     std::snprintf(conf, sizeof(conf), "%.6f", t["max_confidence"].get<double>());
     lines[t["tile"]] =

@@ -78,6 +78,7 @@ echo "kills: $done_kills of $kills (mean restart to listening: $((restart_ms_tot
 echo "integrity_check: reference $reference_integrity, soak $soak_integrity"
 [ "$reference_integrity" = ok ] && [ "$soak_integrity" = ok ] || status=1
 echo "changed tiles: reference $(wc -l <"$root/reference/changes.txt"), soak $(wc -l <"$dir/changes.txt")"
+[ -s "$root/reference/changes.txt" ] || { echo "the reference run found no changes: nothing to compare" >&2; status=1; }
 if diff "$root/reference/changes.txt" "$dir/changes.txt" >"$root/changes.diff"; then
   echo "changes equal the uninterrupted run's"
 else

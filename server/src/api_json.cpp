@@ -1,5 +1,6 @@
 #include "api_json.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <set>
@@ -107,6 +108,10 @@ SE3 PoseFromJson(const Json& j, const std::string& field) {
       throw ApiError(ApiCode::kInvalidPose, "field '" + field + "': non-finite or non-numeric entry");
     }
     v[i] = e.get<double>();
+  }
+  // Found by fuzz_keyframe_meta: t = 2e35 reached the voxel filter's double -> int64 cast.
+  if (std::max({std::abs(v[0]), std::abs(v[1]), std::abs(v[2])}) > kMaxCoordinate) {
+    throw ApiError(ApiCode::kInvalidPose, "field '" + field + ".t': coordinates must be within +-1e8 m");
   }
   Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
   if (std::abs(q.norm() - 1.0) > 1e-3) {

@@ -22,7 +22,11 @@ Json ParseApiJson(std::string_view text, const std::string& what);
 // {"width","height","fx","fy","cx","cy"}; checks ranges against the ingest limits.
 PinholeCamera CameraFromJson(const Json& j, const IngestConfig& limits);
 Json CameraToJson(const PinholeCamera& camera);
-// {"t":[x,y,z],"q":[qw,qx,qy,qz]}: finite, |q| within 1e-3 of 1 (then normalized).
+// Map coordinates beyond this are rejected before they reach voxel and tile arithmetic (integer
+// indices): poses, bbox queries, prior points.
+constexpr double kMaxCoordinate = 1e8;
+// {"t":[x,y,z],"q":[qw,qx,qy,qz]}: finite, |t| <= kMaxCoordinate, |q| within 1e-3 of 1 (then
+// normalized).
 SE3 PoseFromJson(const Json& j, const std::string& field);
 Json PoseToJson(const SE3& T);
 // 36 finite numbers, symmetric within 1e-9 relative, non-negative diagonal; or null.

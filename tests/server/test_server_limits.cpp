@@ -1,6 +1,7 @@
 // Limits on what a request (or a damaged stored blob) can make the server allocate or compute,
 // each found while fuzzing or load-testing (tests/fuzz, bench/load.sh): JSON nesting depth,
-// page numbers whose offset overflows, a blob header claiming more than deflate can expand to.
+// page numbers whose offset overflows, a blob header claiming more than deflate can expand to,
+// coordinates too large for voxel and tile indices (a pose from fuzz_keyframe_meta, prior points).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -64,8 +65,28 @@ TEST(MapService, PagesWhoseOffsetWouldOverflowAreRefused) {
               ApiCode::kInvalidArgument);
     EXPECT_EQ(CodeOf([&] { service.ListChangedTiles("-10,-10,10,10", 0.0, 1000000001, 1); }),
               ApiCode::kInvalidArgument);
+    // A prior point beyond +-1e8 m would overflow the tile index: refused, nothing imported.
+    const std::string far_pcd =
+        "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+        "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\nDATA ascii\n1 2 3\n1e30 0 0\n";
+    EXPECT_EQ(
+        CodeOf([&] { service.ImportPrior(Bytes(far_pcd.begin(), far_pcd.end()), "pcd", ""); }),
+        ApiCode::kInvalidArgument);
+    EXPECT_EQ(service.ListPriorVersions()["versions"].size(), 0u);
   }
   std::filesystem::remove_all(dir);
+}
+
+TEST(PoseFromJson, TranslationsBeyondTheMapAreRefusedBeforeVoxelArithmetic) {
+  // The fuzz finding (tests/fuzz/regressions/fuzz_keyframe_meta/translation_2e35.json): z = 2e35
+  // was accepted and the keyframe cloud's voxel filter cast 2.8e35 to int64 (undefined).
+  const Json far =
+      Json::parse(R"({"t":[0,0,222222222222222222222222222222222221.5],"q":[1,0,0,0]})");
+  EXPECT_EQ(CodeOf([&] { PoseFromJson(far, "T_map_cam"); }), ApiCode::kInvalidPose);
+  const Json edge = Json::parse(R"({"t":[-1e8,1e8,0],"q":[1,0,0,0]})");
+  EXPECT_EQ(PoseFromJson(edge, "T_map_cam").translation().x(), -1e8);
+  const Json beyond = Json::parse(R"({"t":[1.0000001e8,0,0],"q":[1,0,0,0]})");
+  EXPECT_EQ(CodeOf([&] { PoseFromJson(beyond, "T_map_cam"); }), ApiCode::kInvalidPose);
 }
 
 TEST(BlobCodec, AHeaderClaimingMoreThanDeflateCanExpandToIsRefusedBeforeAllocating) {
