@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "api_json.hpp"
@@ -87,6 +88,24 @@ TEST(PoseFromJson, TranslationsBeyondTheMapAreRefusedBeforeVoxelArithmetic) {
   EXPECT_EQ(PoseFromJson(edge, "T_map_cam").translation().x(), -1e8);
   const Json beyond = Json::parse(R"({"t":[1.0000001e8,0,0],"q":[1,0,0,0]})");
   EXPECT_EQ(CodeOf([&] { PoseFromJson(beyond, "T_map_cam"); }), ApiCode::kInvalidPose);
+}
+
+TEST(ServerConfig, AKeyThatIsNotANameIsReportedNotAnAbort) {
+  // tests/fuzz/regressions/fuzz_server_config/complex_key.yaml, shortened: "? threads: 8" is a
+  // mapping used as a key; the config reader's destructor threw on it and the process aborted.
+  const auto path =
+      std::filesystem::temp_directory_path() / ("mds_cfg_" + std::to_string(getpid()) + ".yaml");
+  std::ofstream(path) << "http:\n  port: 8080\n  ? threads: 8\n";
+  try {
+    LoadServerConfig(path.string());
+    FAIL() << "a complex key was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kParse);
+    EXPECT_NE(std::string(e.what()).find("config.http: a key that is not a plain name"),
+              std::string::npos)
+        << e.what();
+  }
+  std::filesystem::remove(path);
 }
 
 TEST(BlobCodec, AHeaderClaimingMoreThanDeflateCanExpandToIsRefusedBeforeAllocating) {
