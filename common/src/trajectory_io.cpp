@@ -44,6 +44,9 @@ bool ParseNumbers(const std::string& line, std::vector<double>* values) {
   throw Error(ErrorCode::kParse, path + ":" + std::to_string(line_number) + ": " + what);
 }
 
+// int64 nanoseconds end at 9.22e9 s (year 2262).
+constexpr double kMaxStampSeconds = 9.2e9;
+
 // TUM seconds to ns without going through double (which keeps only ~16 digits: a 2014 epoch
 // stamp would lose its last ~100 ns). Falls back to double for exponent forms like "1.4e9".
 int64_t SecondsTextToNs(const std::string& line, double fallback_seconds) {
@@ -90,6 +93,10 @@ Trajectory ReadTumTrajectory(const std::string& path) {
     }
     const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     if (std::abs(q.norm() - 1.0) > 1e-2) LineError(path, n, "quaternion is not unit length");
+    // Found by fuzz_euroc_csv: 9311868164 s overflowed int64 nanoseconds (undefined).
+    if (!(std::abs(v[0]) < kMaxStampSeconds)) {
+      LineError(path, n, "time stamp beyond +-9.2e9 s (int64 ns)");
+    }
     trajectory.push_back({SecondsTextToNs(line, v[0]),
                           MakeSE3(q, {v[1], v[2], v[3]})});
   }

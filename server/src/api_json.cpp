@@ -1,10 +1,28 @@
 #include "api_json.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <set>
 
 namespace mapdelta::server {
+
+Json ParseApiJson(std::string_view text, const std::string& what) {
+  // nlohmann's parser callback sees the nesting depth of every value as it is read (0 for the
+  // outermost value), so the cap stops a deep document before it is built.
+  const auto cap_depth = [&what](int depth, Json::parse_event_t, Json&) {
+    if (depth >= kMaxJsonDepth) {
+      throw ApiError(ApiCode::kInvalidJson,
+                     what + " nests deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    }
+    return true;
+  };
+  try {
+    return Json::parse(text.begin(), text.end(), cap_depth);
+  } catch (const Json::parse_error& e) {
+    throw ApiError(ApiCode::kInvalidJson, what + " is not valid JSON: " + e.what());
+  }
+}
 
 const Json& Field(const Json& obj, const std::string& name) {
   if (!obj.is_object()) throw ApiError(ApiCode::kInvalidArgument, "expected a JSON object");
@@ -90,6 +108,10 @@ SE3 PoseFromJson(const Json& j, const std::string& field) {
       throw ApiError(ApiCode::kInvalidPose, "field '" + field + "': non-finite or non-numeric entry");
     }
     v[i] = e.get<double>();
+  }
+  // Found by fuzz_keyframe_meta: t = 2e35 reached the voxel filter's double -> int64 cast.
+  if (std::max({std::abs(v[0]), std::abs(v[1]), std::abs(v[2])}) > kMaxCoordinate) {
+    throw ApiError(ApiCode::kInvalidPose, "field '" + field + ".t': coordinates must be within +-1e8 m");
   }
   Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
   if (std::abs(q.norm() - 1.0) > 1e-3) {

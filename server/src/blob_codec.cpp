@@ -11,6 +11,7 @@ namespace {
 
 constexpr char kMagic[4] = {'M', 'D', 'B', '1'};
 constexpr uint16_t kFormatVersion = 1;
+constexpr uint64_t kMaxDeflateRatio = 1032;
 enum Kind : uint8_t { kPoints = 1, kAggregate = 2, kChanges = 3 };
 
 class Writer {
@@ -89,6 +90,12 @@ Bytes Open(Kind kind, const Bytes& blob) {
   const auto raw_size = r.Get<uint64_t>();
   const auto crc = r.Get<uint32_t>();
   if (raw_size > (uint64_t{1} << 32)) throw Error(ErrorCode::kParse, "stored blob too large");
+  // Deflate expands at most 1032:1, so a larger claim is damage; checked before allocating it.
+  const uint64_t compressed = blob.size() - kHeader;
+  if (raw_size > kMaxDeflateRatio * compressed + 64) {
+    throw Error(ErrorCode::kParse, "stored blob claims " + std::to_string(raw_size) +
+                                       " bytes from " + std::to_string(compressed) + " compressed");
+  }
   Bytes raw(raw_size);
   uLongf out = raw_size;
   if (uncompress(raw.data(), &out, blob.data() + kHeader, blob.size() - kHeader) != Z_OK ||

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "api_json.hpp"
 #include "auth.hpp"
 #include "http_routes.hpp"
 #include "mapdelta/common/error.hpp"
@@ -92,11 +93,7 @@ Json ParseJsonBody(const Req& req, int64_t limit) {
   if (type.rfind("application/json", 0) != 0) {
     throw ApiError(ApiCode::kUnsupportedMedia, "Content-Type must be application/json");
   }
-  try {
-    return Json::parse(req.body);
-  } catch (const Json::parse_error& e) {
-    throw ApiError(ApiCode::kInvalidJson, std::string("body is not valid JSON: ") + e.what());
-  }
+  return ParseApiJson(req.body, "body");
 }
 
 int64_t PathInt(const Req& req, int index) {
@@ -182,12 +179,7 @@ void RegisterRoutes(httplib::Server& s, MapService& svc) {
           if (!req.has_file("meta") || !req.has_file("depth")) {
             throw ApiError(ApiCode::kInvalidArgument, "multipart body needs parts 'meta' (JSON) and 'depth' (16-bit PNG)");
           }
-          Json meta;
-          try {
-            meta = Json::parse(req.get_file_value("meta").content);
-          } catch (const Json::parse_error& e) {
-            throw ApiError(ApiCode::kInvalidJson, std::string("part 'meta' is not valid JSON: ") + e.what());
-          }
+          const Json meta = ParseApiJson(req.get_file_value("meta").content, "part 'meta'");
           const std::string& png = req.get_file_value("depth").content;
           bool created = false;
           const Json out = svc.PutKeyframe(PathInt(req, 1), PathInt(req, 2), meta, Bytes(png.begin(), png.end()), &created);

@@ -73,9 +73,6 @@ Rect TileRange(const TileGrid& grid, double min_x, double min_y, double max_x, d
   return Rect{double(a.ix()), double(a.iy()), double(b.ix()), double(b.iy())};
 }
 
-// Map coordinates beyond this are rejected before they reach tile arithmetic (int32 indices).
-constexpr double kMaxCoordinate = 1e8;
-
 std::vector<double> ParseBbox(const std::string& text) {
   std::vector<double> v;
   std::stringstream ss(text);
@@ -98,9 +95,14 @@ std::vector<double> ParseBbox(const std::string& text) {
   return v;
 }
 
+constexpr int64_t kMaxPage = 1'000'000'000;
+
 void CheckPage(int64_t page, int64_t page_size) {
   if (page < 1) throw ApiError(ApiCode::kInvalidArgument, "page must be >= 1");
   if (page_size < 1 || page_size > 1000) throw ApiError(ApiCode::kInvalidArgument, "page_size must be in [1, 1000]");
+  // The storage offset is (page - 1) * page_size: a page near 2^63 would overflow it.
+  if (page > kMaxPage)
+    throw ApiError(ApiCode::kInvalidArgument, "page must be <= " + std::to_string(kMaxPage));
 }
 
 Json JobToJson(const JobRecord& j) {
@@ -134,6 +136,12 @@ Json MapService::ImportPriorFile(const std::string& path, const std::string& not
   }
   const size_t dropped = RemoveNonFinite(&cloud);
   if (cloud.empty()) throw ApiError(ApiCode::kInvalidArgument, "prior cloud has no finite points");
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud[i].cast<double>().cwiseAbs().maxCoeff() > kMaxCoordinate) {
+      throw ApiError(ApiCode::kInvalidArgument,
+                     "prior cloud: point " + std::to_string(i) + " lies beyond +-1e8 m");
+    }
+  }
   const TileGrid grid(config_.storage.tile_size_m);
   std::vector<PriorTileRecord> tiles;
   for (const auto& [tile, points] : grid.Split(cloud)) {

@@ -1,0 +1,15 @@
+// PLY files (prior import over POST /v1/admin/prior and import-prior): our bounds-checked
+// parser, the one ReadCloud uses (ascii, binary little and big endian).
+#include <cstdint>
+#include <string_view>
+
+#include "parse_errors.hpp"
+#include "cloud_readers.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  using namespace mapdelta;
+  fuzz::ExpectParseErrorOnly([&] {
+    detail::ParsePly(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.ply");
+  });
+  return 0;
+}
