@@ -92,7 +92,8 @@ TEST(PoseFromJson, TranslationsBeyondTheMapAreRefusedBeforeVoxelArithmetic) {
 
 TEST(ServerConfig, AKeyThatIsNotANameIsReportedNotAnAbort) {
   // tests/fuzz/regressions/fuzz_server_config/complex_key.yaml, shortened: "? threads: 8" is a
-  // mapping used as a key; the config reader's destructor threw on it and the process aborted.
+  // mapping used as a key; the old reader's destructor threw on it and the process aborted. The
+  // shared strict reader (common config_reader) names such a key "?" among the unknown keys.
   const auto path =
       std::filesystem::temp_directory_path() / ("mds_cfg_" + std::to_string(getpid()) + ".yaml");
   std::ofstream(path) << "http:\n  port: 8080\n  ? threads: 8\n";
@@ -100,8 +101,8 @@ TEST(ServerConfig, AKeyThatIsNotANameIsReportedNotAnAbort) {
     LoadServerConfig(path.string());
     FAIL() << "a complex key was accepted";
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ErrorCode::kParse);
-    EXPECT_NE(std::string(e.what()).find("config.http: a key that is not a plain name"),
+    EXPECT_EQ(e.code(), ErrorCode::kInvalidArgument);  // config problems exit 2, as usage errors
+    EXPECT_NE(std::string(e.what()).find("http.?: unknown key"),
               std::string::npos)
         << e.what();
   }
