@@ -32,8 +32,7 @@ void FrameBodylessRequest(Req& req) {
 // The API ignores Range (RFC 9110 section 14.2 allows it; every resource here is small): httplib
 // 0.11 cuts *every* response body to the requested range, error bodies included, and marks it
 // 206 only when the handler left the status unset, so our handlers' 200s went out as 200 with
-// a partial body. Without ranges the full body goes out with its own status. (The web map's
-// static files are served by httplib before this hook and answer ranges with a proper 206.)
+// a partial body. Without ranges the full body goes out with its own status, static files too.
 void IgnoreRange(Req& req) { req.ranges.clear(); }
 
 // Body limits per route, checked on Content-Length before the body is read (so that a JSON
@@ -106,11 +105,14 @@ void InstallProtocolHandlers(httplib::Server& s, MapService& svc, const BodyLimi
   });
 
   // Every response leaves through here, including the web map's static files: each carries a
-  // request id, and says whether it serves ranges (only static files do; see IgnoreRange).
+  // request id and says that ranges are not served (see IgnoreRange). httplib marks a static
+  // file 206 when the request had a Range, even with the ranges dropped and the whole body
+  // going out: that is a 200.
   s.set_post_routing_handler([](const Req& req, Res& res) {
     if (!res.has_header("X-Request-Id")) res.set_header("X-Request-Id", RequestId(req));
+    if (res.status == 206 && !res.has_header("Content-Range")) res.status = 200;
     res.headers.erase("Accept-Ranges");
-    res.set_header("Accept-Ranges", res.status == 206 ? "bytes" : "none");
+    res.set_header("Accept-Ranges", "none");
   });
 }
 
