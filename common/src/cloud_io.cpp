@@ -3,6 +3,7 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
+#include <pcl/register_point_struct.h>
 
 #include <filesystem>
 #include <fstream>
@@ -11,6 +12,23 @@
 #include "cloud_readers.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/las_io.hpp"
+
+// PCL's layout of ChangeCloudPoint: the field names are what readers see.
+namespace mapdelta::detail {
+struct PclChangePoint {
+  PCL_ADD_POINT4D;  // x y z and a padding float, which PCL's writers leave out
+  float confidence;
+  uint32_t observed_by;
+  uint32_t supported_by;
+  PCL_MAKE_ALIGNED_OPERATOR_NEW
+};
+}  // namespace mapdelta::detail
+
+// clang-format off
+POINT_CLOUD_REGISTER_POINT_STRUCT(mapdelta::detail::PclChangePoint,
+    (float, x, x)(float, y, y)(float, z, z)(float, confidence, confidence)
+    (uint32_t, observed_by, observed_by)(uint32_t, supported_by, supported_by))
+// clang-format on
 
 namespace mapdelta {
 namespace {
@@ -48,9 +66,35 @@ PointCloud ReadCloud(const std::string& path) {
   return ext == ".pcd" ? detail::ParsePcd(bytes, path) : detail::ParsePly(bytes, path);
 }
 
-void WriteCloud(const std::string& path, const PointCloud& cloud) {
+namespace {
+
+// Binary PCD or PLY by extension. PCL refuses to write an empty PCD (and prints a warning to
+// the console), but no points is a valid answer: its header comes from PCL, the data from here.
+template <typename PclPoint>
+void WritePclCloud(const std::string& path, pcl::PointCloud<PclPoint>& cloud) {
+  cloud.width = static_cast<uint32_t>(cloud.size());
+  cloud.height = 1;
   const std::string ext = Extension(path);
-  if (ext == ".las") {
+  int status = -1;
+  if (ext == ".pcd" && cloud.empty()) {
+    std::ofstream out(path);
+    out << pcl::PCDWriter::generateHeader(cloud, 0) << "DATA ascii\n";
+    status = out ? 0 : -1;
+  } else if (ext == ".pcd") {
+    status = pcl::io::savePCDFileBinary(path, cloud);
+  } else if (ext == ".ply") {
+    status = pcl::io::savePLYFileBinary(path, cloud);
+  } else {
+    throw Error(ErrorCode::kUnsupported,
+                path + ": unsupported cloud format '" + ext + "' (expected .pcd, .ply or .las)");
+  }
+  if (status < 0) throw Error(ErrorCode::kIo, path + ": could not write cloud");
+}
+
+}  // namespace
+
+void WriteCloud(const std::string& path, const PointCloud& cloud) {
+  if (Extension(path) == ".las") {
     const std::string bytes = EncodeLas(cloud);
     std::ofstream out(path, std::ios::binary);
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
@@ -63,26 +107,23 @@ void WriteCloud(const std::string& path, const PointCloud& cloud) {
   for (size_t i = 0; i < cloud.size(); ++i) {
     pcl_cloud[i] = pcl::PointXYZ(cloud[i].x(), cloud[i].y(), cloud[i].z());
   }
-  pcl_cloud.width = static_cast<uint32_t>(cloud.size());
-  pcl_cloud.height = 1;
-  int status = -1;
-  if (ext == ".pcd") {
-    if (cloud.empty()) {  // written here: PCL prints a warning to the console for empty clouds
-      std::ofstream out(path);
-      out << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\n"
-             "TYPE F F F\nCOUNT 1 1 1\nWIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\n"
-             "DATA ascii\n";
-      status = out ? 0 : -1;
-    } else {
-      status = pcl::io::savePCDFileBinary(path, pcl_cloud);
-    }
-  } else if (ext == ".ply") {
-    status = pcl::io::savePLYFileBinary(path, pcl_cloud);
-  } else {
-    throw Error(ErrorCode::kUnsupported,
-                path + ": unsupported cloud format '" + ext + "' (expected .pcd, .ply or .las)");
+  WritePclCloud(path, pcl_cloud);
+}
+
+void WriteChangeCloud(const std::string& path, const std::vector<ChangeCloudPoint>& points) {
+  pcl::PointCloud<detail::PclChangePoint> pcl_cloud;
+  pcl_cloud.resize(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    detail::PclChangePoint& p = pcl_cloud[i];
+    p.x = points[i].position.x();
+    p.y = points[i].position.y();
+    p.z = points[i].position.z();
+    p.data[3] = 1;
+    p.confidence = points[i].confidence;
+    p.observed_by = points[i].observed_by;
+    p.supported_by = points[i].supported_by;
   }
-  if (status < 0) throw Error(ErrorCode::kIo, path + ": could not write cloud");
+  WritePclCloud(path, pcl_cloud);
 }
 
 }  // namespace mapdelta

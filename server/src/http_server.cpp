@@ -1,5 +1,10 @@
-// HTTP adapter: server life cycle and the error handler for routes httplib itself rejects.
+// HTTP adapter: server life cycle (socket, limits, routes, protocol handlers).
 #include "mapdelta/server/http_server.hpp"
+
+#include <sys/socket.h>
+
+#include <cerrno>
+#include <cstring>
 
 #include "http_routes.hpp"
 #include "mapdelta/common/error.hpp"
@@ -35,17 +40,30 @@ HttpServer::HttpServer(MapService& service) : impl_(std::make_unique<Impl>(servi
   s.set_keep_alive_max_count(kKeepAliveMaxRequests);
   // Idle keep-alive connections hold up a graceful stop this long at most.
   s.set_keep_alive_timeout(2);
+  // httplib's default socket options add SO_REUSEPORT, with which a second server binds the
+  // same port without an error and the kernel splits the connections between the two.
+  // SO_REUSEADDR alone still allows a restart while old connections are in TIME_WAIT.
+  s.set_socket_options([](socket_t sock) {
+    const int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
   RegisterRoutes(s, service);
+  InstallProtocolHandlers(s, service,
+                          BodyLimits{c.max_body_bytes, c.max_keyframe_bytes, c.max_prior_bytes});
 }
 
 HttpServer::~HttpServer() { Stop(); }
 
 int HttpServer::Bind(const std::string& address, int port) {
   int bound = port;
+  errno = 0;
   if (port == 0) bound = impl_->server.bind_to_any_port(address);
   else if (!impl_->server.bind_to_port(address, port)) bound = -1;
   if (bound <= 0) {
-    throw Error(ErrorCode::kIo, "cannot listen on " + address + ":" + std::to_string(port));
+    // httplib reports only failure; errno is what its last bind()/listen() left.
+    const std::string reason = errno != 0 ? std::strerror(errno) : "address not usable";
+    throw Error(ErrorCode::kIo,
+                "cannot listen on " + address + ":" + std::to_string(port) + ": " + reason);
   }
   return bound;
 }

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "auth.hpp"
+#include "instance_lock.hpp"
 #include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
@@ -94,6 +95,18 @@ int Serve(const std::vector<std::string>& args) {
   if (cli.Given("web-root")) config.http.web_root = web_root.empty() ? "off" : web_root;
   InstallLogSink(config.log);
   MD_LOG(kInfo, "effective config:\n" << mds::DumpServerConfig(config));
+
+  // One serving process per database: a second one would run a second job worker on the same
+  // jobs. Held until Serve returns (or the kernel drops it when the process dies).
+  const std::string lock_path = mds::InstanceLock::PathFor(config.storage.database);
+  std::string holder;
+  const auto instance_lock = mds::InstanceLock::TryAcquire(lock_path, &holder);
+  if (!instance_lock) {
+    throw md::Error(md::ErrorCode::kConflict,
+                    "database " + config.storage.database +
+                        " is already served by another mapdelta-server (pid " + holder + ", lock " +
+                        lock_path + "); stop that one or set another storage.database");
+  }
 
   // Block the stop signals in every thread; one thread waits for them with sigwait.
   sigset_t signals;

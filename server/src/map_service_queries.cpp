@@ -49,12 +49,14 @@ class TempFile {
   std::string path_;
 };
 
-FilePayload CloudPayload(const PointCloud& cloud, const std::string& format) {
+// The bytes of a cloud file: `write(path, cloud)` is WriteCloud or WriteChangeCloud.
+template <typename Cloud, typename Writer>
+FilePayload CloudPayload(const Cloud& cloud, const std::string& format, Writer write) {
   if (format != "pcd" && format != "ply") {
     throw ApiError(ApiCode::kInvalidArgument, "format must be pcd or ply");
   }
   TempFile f("." + format);
-  WriteCloud(f.path(), cloud);
+  write(f.path(), cloud);
   FilePayload p;
   p.bytes = f.Read();
   p.content_type = format == "pcd" ? "application/x-pcd" : "application/x-ply";
@@ -200,7 +202,7 @@ FilePayload MapService::GetPriorTile(const std::string& tile_text, std::optional
   if (v < 1 || v > latest) throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
   auto record = storage_->GetPriorTile(tile, v);
   if (!record) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no prior points at version " + std::to_string(v));
-  FilePayload p = CloudPayload(DecodePoints(record->points), format);
+  FilePayload p = CloudPayload(DecodePoints(record->points), format, WriteCloud);
   p.prior_version = v;
   return p;
 }
@@ -290,11 +292,13 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
            (kind.empty() || (kind == "new") == (c.kind == ChangeKind::kNew));
   };
   if (format != "json") {
-    PointCloud cloud;
+    std::vector<ChangeCloudPoint> cloud;
     for (const auto& c : changes) {
-      if (keep(c)) cloud.push_back(c.position);
+      if (!keep(c)) continue;
+      cloud.push_back({c.position, c.confidence, static_cast<uint32_t>(c.observed_by.size()),
+                       static_cast<uint32_t>(c.supported_by.size())});
     }
-    FilePayload p = CloudPayload(cloud, format);
+    FilePayload p = CloudPayload(cloud, format, WriteChangeCloud);
     p.prior_version = record->prior_version;
     return p;
   }

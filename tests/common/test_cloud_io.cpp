@@ -4,6 +4,7 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
+#include <pcl/register_point_struct.h>
 
 #include <filesystem>
 #include <fstream>
@@ -13,6 +14,20 @@
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
 #include "support/temp_dir.hpp"
+
+// How a third-party tool would read mapdelta's change clouds: its own point type, by field name.
+struct ReaderChangePoint {
+  PCL_ADD_POINT4D;
+  float confidence;
+  uint32_t observed_by;
+  uint32_t supported_by;
+  PCL_MAKE_ALIGNED_OPERATOR_NEW
+};
+// clang-format off
+POINT_CLOUD_REGISTER_POINT_STRUCT(ReaderChangePoint,
+    (float, x, x)(float, y, y)(float, z, z)(float, confidence, confidence)
+    (uint32_t, observed_by, observed_by)(uint32_t, supported_by, supported_by))
+// clang-format on
 
 namespace mapdelta {
 namespace {
@@ -67,6 +82,54 @@ TEST(CloudIo, ReadsEveryPclEncodingWithExtraFields) {
   ExpectSame(cloud, ReadCloud(dir + "/d.ply"), 1e-3f);
   ASSERT_EQ(pcl::io::savePLYFileBinary(dir + "/e.ply", cloud), 0);
   ExpectSame(cloud, ReadCloud(dir + "/e.ply"), 0.f);
+}
+
+TEST(CloudIo, ChangeCloudEvidenceFieldsReadBackByPcl) {
+  const std::string dir = TempDir("cloud_io_changes");
+  std::vector<ChangeCloudPoint> points;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> coord(-50, 50);
+  for (uint32_t i = 0; i < 300; ++i) {
+    const uint32_t observed = 1 + i % 7, supported = i % (observed + 1);
+    points.push_back({Point(coord(rng), coord(rng), coord(rng)),
+                      (supported + 1.0f) / (observed + 2.0f), observed, supported});
+  }
+  for (const std::string ext : {".pcd", ".ply"}) {
+    const std::string path = dir + "/changes" + ext;
+    WriteChangeCloud(path, points);
+    // PCL's generic reader sees the fields by name and type ...
+    pcl::PCLPointCloud2 blob;
+    ASSERT_EQ(ext == ".pcd" ? pcl::io::loadPCDFile(path, blob) : pcl::io::loadPLYFile(path, blob),
+              0);
+    std::vector<std::pair<std::string, int>> fields;
+    for (const auto& f : blob.fields) fields.emplace_back(f.name, f.datatype);
+    const std::vector<std::pair<std::string, int>> expected = {
+        {"x", pcl::PCLPointField::FLOAT32},          {"y", pcl::PCLPointField::FLOAT32},
+        {"z", pcl::PCLPointField::FLOAT32},          {"confidence", pcl::PCLPointField::FLOAT32},
+        {"observed_by", pcl::PCLPointField::UINT32}, {"supported_by", pcl::PCLPointField::UINT32}};
+    EXPECT_EQ(fields, expected) << path;
+    // ... and a reader's own point type gets every value back exactly.
+    pcl::PointCloud<ReaderChangePoint> read;
+    pcl::fromPCLPointCloud2(blob, read);
+    ASSERT_EQ(read.size(), points.size()) << path;
+    for (size_t i = 0; i < points.size(); ++i) {
+      EXPECT_EQ(Point(read[i].x, read[i].y, read[i].z), points[i].position);
+      EXPECT_EQ(read[i].confidence, points[i].confidence);
+      EXPECT_EQ(read[i].observed_by, points[i].observed_by);
+      EXPECT_EQ(read[i].supported_by, points[i].supported_by);
+    }
+    // Our own reader (the prior import) takes x y z and skips the rest.
+    const PointCloud xyz = ReadCloud(path);
+    ASSERT_EQ(xyz.size(), points.size());
+    EXPECT_EQ(xyz.back(), points.back().position);
+  }
+  // No changes is a valid answer: an empty PCD with the same fields, readable by both.
+  WriteChangeCloud(dir + "/none.pcd", {});
+  pcl::PCLPointCloud2 empty;
+  ASSERT_EQ(pcl::io::loadPCDFile(dir + "/none.pcd", empty), 0);
+  EXPECT_EQ(empty.fields.size(), 6u);
+  EXPECT_EQ(empty.width * empty.height, 0u);
+  EXPECT_TRUE(ReadCloud(dir + "/none.pcd").empty());
 }
 
 TEST(CloudIo, PlyWithFacesBeforeVerticesAndBigEndianDoubles) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -13,6 +14,7 @@
 #include "auth.hpp"
 #include "box_scene.hpp"
 #include "changed_scene.hpp"
+#include "http_test_server.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/server/http_server.hpp"
@@ -25,64 +27,8 @@ namespace {
 
 using namespace mapdelta::testing;  // NOLINT: the shared test scene
 
-ServerConfig TestConfig(const std::string& db) {
-  ServerConfig c;
-  c.http.port = 0;
-  c.http.threads = 4;
-  c.http.max_body_bytes = 64 * 1024;
-  c.storage.database = db;
-  c.storage.tile_size_m = 20;
-  c.pipeline.max_depth_m = kMaxDepth;
-  c.pipeline.free_space_depth_m = 20;
-  c.pipeline.pixel_stride = 1;
-  c.classify.th_ch_m = 2.4;  // the reference evaluation's value
-  return c;
-}
-
-class ServerHttpTest : public ::testing::Test {
+class ServerHttpTest : public HttpServerTest {
  protected:
-  void SetUp() override {
-    log::SetLevel(log::Level::kWarn);
-    dir_ = std::filesystem::temp_directory_path() / ("mds_http_" + std::to_string(::getpid()));
-    std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
-    service_ = std::make_unique<MapService>(TestConfig((dir_ / "db.sqlite").string()),
-                                            OpenSqliteStorage((dir_ / "db.sqlite").string()));
-    admin_ = "Bearer " + CreateToken(service_->storage(), "admin", Role::kAdmin, NowMs()).secret;
-    vehicle_ = "Bearer " + CreateToken(service_->storage(), "car", Role::kVehicle, NowMs()).secret;
-    reader_ = "Bearer " + CreateToken(service_->storage(), "viewer", Role::kReader, NowMs()).secret;
-    http_ = std::make_unique<HttpServer>(*service_);
-    port_ = http_->Bind("127.0.0.1", 0);
-    service_->StartJobWorker();
-    thread_ = std::thread([this] { http_->Run(); });
-    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
-    client_->set_read_timeout(60, 0);
-    for (int i = 0; i < 100 && !client_->Get("/health"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  void TearDown() override {
-    service_->StopJobWorker();
-    http_->Stop();
-    thread_.join();
-    http_.reset();
-    service_.reset();
-    std::filesystem::remove_all(dir_);
-  }
-
-  httplib::Headers H(const std::string& auth) { return {{"Authorization", auth}}; }
-
-  // Status and parsed JSON body of a response (error bodies must be JSON too).
-  std::pair<int, Json> Call(const httplib::Result& r) {
-    EXPECT_TRUE(r) << "no response";
-    if (!r) return {0, Json()};
-    Json body;
-    if (r->get_header_value("Content-Type").rfind("application/json", 0) == 0) body = Json::parse(r->body);
-    if (r->status >= 400) {
-      EXPECT_TRUE(body.contains("error")) << r->body;
-      EXPECT_TRUE(body["error"].contains("code"));
-    }
-    return {r->status, body};
-  }
-
   int64_t CreateSession(const std::string& vehicle) {
     const Json camera{{"width", 160}, {"height", 90}, {"fx", 80}, {"fy", 80}, {"cx", 80}, {"cy", 45}};
     auto [status, body] = Call(client_->Post("/v1/sessions", H(vehicle_),
@@ -130,14 +76,6 @@ class ServerHttpTest : public ::testing::Test {
     std::ofstream(file, std::ios::binary) << r->body;
     return ReadCloud(file);
   }
-
-  std::filesystem::path dir_;
-  std::unique_ptr<MapService> service_;
-  std::unique_ptr<HttpServer> http_;
-  std::unique_ptr<httplib::Client> client_;
-  std::thread thread_;
-  int port_ = 0;
-  std::string admin_, vehicle_, reader_;
 };
 
 TEST_F(ServerHttpTest, AuthRolesAnd401Vs403) {
@@ -316,6 +254,25 @@ TEST_F(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   }
   const PointCloud removed_pcd = FetchCloud("/v1/changes/tiles/0_0?format=pcd&kind=removed");
   for (const Point& p : removed_pcd) EXPECT_LT(kBoxA.Distance(p.cast<double>()), 0.01);
+  // Change clouds carry each point's evidence as fields (binary: 3 + 1 float32, 2 uint32),
+  // in the order of the JSON listing.
+  auto pcd = client_->Get("/v1/changes/tiles/1_0?format=pcd&kind=new", H(reader_));
+  ASSERT_TRUE(pcd && pcd->status == 200);
+  EXPECT_NE(pcd->body.find("\nFIELDS x y z confidence observed_by supported_by\n"),
+            std::string::npos);
+  const Json listed_new = Call(client_->Get("/v1/changes/tiles/1_0", H(reader_))).second["new"];
+  const size_t data = pcd->body.find("DATA binary\n") + 12;
+  ASSERT_EQ(pcd->body.size() - data, listed_new.size() * 24);
+  for (size_t i = 0; i < listed_new.size(); ++i) {
+    float confidence = 0;
+    uint32_t observed = 0, supported = 0;
+    std::memcpy(&confidence, pcd->body.data() + data + 24 * i + 12, 4);
+    std::memcpy(&observed, pcd->body.data() + data + 24 * i + 16, 4);
+    std::memcpy(&supported, pcd->body.data() + data + 24 * i + 20, 4);
+    EXPECT_FLOAT_EQ(confidence, listed_new[i]["confidence"].get<float>());
+    EXPECT_EQ(observed, listed_new[i]["observed_by"].size());
+    EXPECT_EQ(supported, listed_new[i]["supported_by"].size());
+  }
   // The observed octree of a tile is a valid .bt download.
   auto bt = client_->Get("/v1/observed/tiles/0_0.bt", H(reader_));
   ASSERT_TRUE(bt && bt->status == 200);

@@ -1,6 +1,7 @@
 // Process-level tests of the real mapdelta-server binary: the token CLI, SIGKILL during
 // uploads (no acknowledged keyframe lost), SIGKILL during a commit (the job resumes and gives
-// the same per-tile result as an uninterrupted run), SIGTERM (clean exit 0).
+// the same per-tile result as an uninterrupted run), SIGTERM (clean exit 0), one server per
+// database and per port.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -24,9 +25,12 @@ namespace {
 using Json = nlohmann::json;
 namespace fs = std::filesystem;
 
-// Runs the CLI to completion and returns its stdout.
-std::string RunCli(const std::string& args, int* exit_code) {
-  const std::string cmd = std::string(MAPDELTA_SERVER_BIN) + " " + args + " 2>/dev/null";
+// Runs the CLI to completion and returns its stdout (and stderr, if asked). `timeout` ends
+// a command that should have exited but serves instead (exit code 124), so that such a test
+// fails instead of hanging.
+std::string RunCli(const std::string& args, int* exit_code, bool with_stderr = false) {
+  const std::string cmd = "timeout 60 " + std::string(MAPDELTA_SERVER_BIN) + " " + args +
+                          (with_stderr ? " 2>&1" : " 2>/dev/null");
   FILE* pipe = popen(cmd.c_str(), "r");
   std::string out;
   char buf[512];
@@ -174,6 +178,47 @@ TEST_F(ServerProcessTest, TokenCliAndSigterm) {
   EXPECT_EQ(code, 0);
   EXPECT_EQ(c.Get("/v1/admin/jobs", H(admin_))->status, 401);
   EXPECT_EQ(server.Kill(SIGTERM), 0);
+}
+
+// A second server on the same database is refused (it would run a second job worker on the
+// same jobs) with an error naming the first one; the kernel drops the first one's lock when it
+// is SIGKILLed, so a restart after a crash is not blocked.
+TEST_F(ServerProcessTest, SecondServerOnTheSameDatabaseIsRefused) {
+  auto first = std::make_unique<ServerProcess>(config_, log_);
+  ASSERT_GT(first->port(), 0);
+  int code = 0;
+  const std::string out = RunCli("serve --config " + config_ + " --port 0", &code, true);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("is already served by another mapdelta-server (pid " +
+                     std::to_string(first->pid()) + ","),
+            std::string::npos)
+      << out;
+  EXPECT_EQ(out.find("listening on"), std::string::npos) << out;
+  httplib::Client c("127.0.0.1", first->port());
+  auto health = c.Get("/health");
+  EXPECT_TRUE(health && health->status == 200);
+  first->Kill(SIGKILL);
+  ServerProcess restarted(config_, log_);
+  EXPECT_GT(restarted.port(), 0);
+  EXPECT_EQ(restarted.Kill(SIGTERM), 0);
+}
+
+// A port another server listens on is an error at start (httplib's default SO_REUSEPORT let
+// both bind and split the connections), even for a server of another database.
+TEST_F(ServerProcessTest, PortInUseFailsWithAClearError) {
+  ServerProcess first(config_, log_);
+  ASSERT_GT(first.port(), 0);
+  const std::string other = (dir_ / "other.yaml").string();
+  std::ofstream(other) << "storage:\n  database: " << (dir_ / "other.sqlite").string() << "\n";
+  int code = 0;
+  const std::string port = std::to_string(first.port());
+  const std::string out = RunCli("serve --config " + other + " --port " + port, &code, true);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("cannot listen on 127.0.0.1:" + port + ": Address already in use"),
+            std::string::npos)
+      << out;
+  EXPECT_EQ(out.find("listening on"), std::string::npos) << out;
+  EXPECT_EQ(first.Kill(SIGTERM), 0);
 }
 
 TEST_F(ServerProcessTest, SigkillDuringUploadsLosesNoAcknowledgedKeyframe) {
