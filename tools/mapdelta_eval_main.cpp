@@ -17,8 +17,11 @@ int main(int argc, char** argv) {
                                         args.end());
     if (!args.empty() && args[0] == "ate") return tools::RunEvalAte(rest, std::cout);
     if (!args.empty() && args[0] == "changes") return tools::RunEvalChanges(rest, std::cout);
-    cli::FailUsage("mapdelta-eval",
-                   args.empty() ? "missing COMMAND (ate or changes)"
-                                : "unknown command '" + args[0] + "' (expected ate or changes)");
+    if (!args.empty() && args[0] == "removed-breakdown")
+      return tools::RunEvalRemovedBreakdown(rest, std::cout);
+    cli::FailUsage("mapdelta-eval", args.empty()
+                                        ? "missing COMMAND (ate, changes or removed-breakdown)"
+                                        : "unknown command '" + args[0] +
+                                              "' (expected ate, changes or removed-breakdown)");
   });
 }

@@ -22,6 +22,8 @@ usage: bash tools/reproduce-paper.sh --out DIR [options]
   --bounds LIST       free-ray bounds in px for the sweep (default 128,0: 128 = the server's
                       default, 0 = the paper's rule); the first is the operating point
   --thf-point M       th_f of the operating point (Table, Fig. 6 analogue; default 20)
+  --free-space RULE   mapdelta-detect's rule for the free space behind removed points: paper or
+                      confident (default: mapdelta-detect's default; see its --help)
   --crowd LIST        numbers of uploads for the crowdsourcing curve (default 1,2,4,8; 'none' skips)
   --crowd-preset P    preset of the crowdsourcing scene (default tiny: 4 min; paper: about 40 min)
   --crowd-sequence S  sequence every upload drives (default S1_01), with noise seeds 1..max
@@ -45,7 +47,7 @@ EOF2
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 out="" preset=paper sequences="" noises=small,big trials=5 city_seed=1 thf_list=5,10,15,20,25,30
-bounds=128,0 thf_point=20 crowd=1,2,4,8 crowd_preset=tiny crowd_seq=S1_01 crowd_noise=small
+bounds=128,0 thf_point=20 free_space="" crowd=1,2,4,8 crowd_preset=tiny crowd_seq=S1_01 crowd_noise=small
 sweep_trials="" data="" build_dir=build sim_override="" keep_data=0 nice_cmd="nice -n 10" report_only=0
 declare -A dataset_override=()
 while [ $# -gt 0 ]; do
@@ -60,6 +62,7 @@ while [ $# -gt 0 ]; do
     --thf) thf_list=$2; shift 2 ;;
     --bounds) bounds=$2; shift 2 ;;
     --thf-point) thf_point=$2; shift 2 ;;
+    --free-space) free_space=$2; shift 2 ;;
     --crowd) crowd=$2; shift 2 ;;
     --crowd-preset) crowd_preset=$2; shift 2 ;;
     --crowd-sequence) crowd_seq=$2; shift 2 ;;
@@ -89,6 +92,7 @@ for v in ${bounds//,/ }; do [[ "$v" =~ ^[0-9]+$ ]] || { echo "reproduce-paper: b
 for v in ${noises//,/ } $crowd_noise; do
   case "$v" in none|small|big) ;; *) echo "reproduce-paper: noise '$v': expected none, small or big" >&2; exit 2 ;; esac
 done
+case "$free_space" in ""|paper|confident) ;; *) echo "reproduce-paper: --free-space '$free_space': expected paper or confident" >&2; exit 2 ;; esac
 case "$preset" in paper|tiny) ;; *) echo "reproduce-paper: --preset '$preset': expected paper or tiny" >&2; exit 2 ;; esac
 if [ -z "$sequences" ]; then
   if [ "$preset" = paper ]; then sequences=S1_01,S1_02,S2_01,S2_02,S1_mirror,S1_dark; else sequences=S1_01,S2_01; fi
@@ -130,7 +134,7 @@ vio_point="th_f $thf_point m, free-ray bound $operating_bound px"
 . "$root/tools/repro/crowd.sh"
 
 jq -n --arg preset "$preset" --arg sequences "$sequences" --arg noises "$noises" --argjson trials "$trials" \
-  --argjson sweep_trials "$sweep_trials" \
+  --argjson sweep_trials "$sweep_trials" --arg free_space "$free_space" \
   --argjson seed "$city_seed" --arg thf "$thf_list" --arg bounds "$bounds" --argjson thf_point "$thf_point" \
   --arg crowd "$crowd" --arg crowd_preset "$crowd_preset" --arg crowd_seq "$crowd_seq" --arg crowd_noise "$crowd_noise" \
   --arg commit "$run_commit" \
@@ -139,7 +143,7 @@ jq -n --arg preset "$preset" --arg sequences "$sequences" --arg noises "$noises"
   '{preset: $preset, sequences: ($sequences | split(",")), noises: ($noises | split(",")), trials: $trials,
     sweep_trials: $sweep_trials,
     city_seed: $seed, th_f_m: ($thf | split(",") | map(tonumber)), free_ray_bounds_px: ($bounds | split(",") | map(tonumber)),
-    th_f_point_m: $thf_point, crowd: {uploads: $crowd, preset: $crowd_preset, sequence: $crowd_seq, noise: $crowd_noise},
+    th_f_point_m: $thf_point, free_space: (if $free_space == "" then "default" else $free_space end), crowd: {uploads: $crowd, preset: $crowd_preset, sequence: $crowd_seq, noise: $crowd_noise},
     commit: $commit, started: $started, machine: {cpu: $cpu, nproc: $nproc, loadavg_at_start: $load}}' >"$out/params.json.new"
 [ "$report_only" = 1 ] && [ -f "$out/params.json" ] || mv "$out/params.json.new" "$out/params.json"
 rm -f "$out/params.json.new"

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <exception>
+#include <optional>
 
 #include "mapdelta/common/depth_cloud.hpp"
 #include "mapdelta/common/error.hpp"
@@ -38,7 +39,32 @@ std::vector<char> FarFrom(const PointCloud& cloud, const NeighborIndex& referenc
   return keep;
 }
 
+// The points whose own voxel `observed` has seen free in at least `keyframes` keyframes.
+PointCloud SeenFree(const PointCloud& points, const ObservedArea& observed, int keyframes) {
+  std::vector<char> keep(points.size(), 0);
+#pragma omp parallel for schedule(dynamic, 2048)
+  for (long i = 0; i < static_cast<long>(points.size()); ++i)
+    keep[i] = observed.IsSeenFree(points[i], keyframes);
+  return Select(points, keep);
+}
+
 }  // namespace
+
+void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) {
+  if (rule == "paper") {
+    params->observed.depth_sigma_per_m2 = 0.0;
+    params->free_rays_stop_at_prior = false;
+    params->removed_min_free_keyframes = 0;
+  } else if (rule == "confident") {
+    params->observed.depth_sigma_per_m2 = 1.25e-3;
+    params->observed.depth_sigma_factor = 3.0;
+    params->free_rays_stop_at_prior = true;
+    params->removed_min_free_keyframes = 2;
+  } else {
+    throw Error(ErrorCode::kInvalidArgument,
+                "free-space rule '" + rule + "': expected paper or confident");
+  }
+}
 
 PointCloud ObservedPriorCloud(const PointCloud& prior, const PointCloud& global,
                               const ObservedArea& observed, double th_ch_m) {
@@ -104,6 +130,10 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes, const D
                                         const PointCloud& prior, const ChangeDetectionParams& params,
                                         const AlignFunction& align, const ProgressFunction& progress) {
   CheckThreshold(params.th_ch_m);
+  if (params.removed_min_free_keyframes < 0 || params.removed_min_free_keyframes > 4) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "change detection: removed_min_free_keyframes must be 0-4");
+  }
   if (keyframes.keyframes.empty()) {
     throw Error(ErrorCode::kInvalidArgument, "change detection: no keyframes");
   }
@@ -128,18 +158,28 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes, const D
     }
     result.global = Transform(result.global, result.T_prior_global);
   }
-  // 3. Observed area A_obs from every keyframe (aligned poses).
+  // 3. Observed area A_obs from every keyframe (aligned poses); optionally rays without depth
+  //    end at the prior's surfaces (the full-resolution prior: its voxels have no holes).
+  const std::optional<PriorSurfaces> surfaces =
+      params.free_rays_stop_at_prior
+          ? std::optional<PriorSurfaces>(std::in_place, prior, params.observed.resolution_m)
+          : std::nullopt;
   const size_t n = keyframes.keyframes.size();
   for (size_t k = 0; k < n; ++k) {
     report("observed area", static_cast<double>(k) / n);
-    result.observed.InsertKeyframe(keyframes.camera, result.T_prior_global * keyframes.keyframes[k].T_map_cam,
-                                   depth_of(k), params.observed);
+    result.observed.InsertKeyframe(keyframes.camera,
+                                   result.T_prior_global * keyframes.keyframes[k].T_map_cam,
+                                   depth_of(k), params.observed, surfaces ? &*surfaces : nullptr);
   }
   report("observed area", 1.0);
-  // 4. Alg. 1 then Alg. 2.
+  // 4. Alg. 1 then Alg. 2, then optionally the per-point evidence of each removed point.
   report("classification", 0.0);
   result.observed_prior = ObservedPriorCloud(result.prior, result.global, result.observed, params.th_ch_m);
   result.changes = ClassifyChanges(result.global, result.observed_prior, params.th_ch_m);
+  if (params.removed_min_free_keyframes > 0) {
+    result.changes.removed_points =
+        SeenFree(result.changes.removed_points, result.observed, params.removed_min_free_keyframes);
+  }
   report("classification", 1.0);
   MD_LOG(kInfo, "change detection: observed prior " << result.observed_prior.size() << ", new "
                                                     << result.changes.new_points.size() << ", removed "

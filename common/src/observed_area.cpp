@@ -7,7 +7,6 @@
 
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/window_min.hpp"
-#include "flat_key_set.hpp"
 #include "observed_area_impl.hpp"
 
 namespace mapdelta {
@@ -24,10 +23,12 @@ void CheckParams(const PinholeCamera& camera, const DepthImage& depth, const Obs
   }
   const auto positive = [](double v) { return std::isfinite(v) && v > 0; };
   if (!positive(p.max_depth_m) || !positive(p.free_ray_m) || !positive(p.prefilter_voxel_m) ||
-      p.pixel_stride < 1 || p.free_ray_bound_window_px < 0) {
+      p.pixel_stride < 1 || p.free_ray_bound_window_px < 0 || !(p.depth_sigma_per_m2 >= 0) ||
+      !(p.depth_sigma_factor >= 0)) {
     throw Error(ErrorCode::kInvalidArgument,
                 "observed area: max_depth_m, free_ray_m, prefilter_voxel_m must be > 0, "
-                "pixel_stride >= 1 and free_ray_bound_window_px >= 0");
+                "pixel_stride >= 1, free_ray_bound_window_px, depth_sigma_per_m2 and "
+                "depth_sigma_factor >= 0");
   }
 }
 
@@ -82,10 +83,12 @@ octomap::OcTreeKey Unpack(uint64_t v) {
                             static_cast<octomap::key_type>(v & 0xffff));
 }
 
-// Keys of the voxels each ray passes through (excluding its end voxel), in parallel: OctoMap's
-// own OpenMP path does nothing in Debian's build (see DESIGN.md), and computeRayKeys is const.
-detail::FlatKeySet RayKeys(const octomap::OcTree& tree, const octomap::point3d& origin, const PointCloud& ends) {
-  detail::FlatKeySet all(8 * ends.size());
+// Adds to `free` the voxels each ray from `origin` to an end point passes through (and the end
+// voxel when end_free), in parallel: OctoMap's own OpenMP path does nothing in Debian's build
+// (see DESIGN.md), and computeRayKeys is const. With `stop_before`, a ray ends before the first
+// voxel of that set it meets (its end voxel is then not free either).
+void AddRayKeys(const octomap::OcTree& tree, const octomap::point3d& origin, const PointCloud& ends,
+                bool end_free, const detail::FlatKeySet* stop_before, detail::FlatKeySet* free) {
 #pragma omp parallel if (ends.size() > 4096)
   {
     detail::FlatKeySet local(4 * ends.size());
@@ -93,12 +96,88 @@ detail::FlatKeySet RayKeys(const octomap::OcTree& tree, const octomap::point3d& 
 #pragma omp for schedule(dynamic, 64) nowait
     for (long i = 0; i < static_cast<long>(ends.size()); ++i) {
       if (!tree.computeRayKeys(origin, ToOcto(ends[i]), ray)) continue;
-      for (const auto& key : ray) local.Insert(Pack(key));
+      bool stopped = false;
+      for (const auto& key : ray) {
+        const uint64_t packed = Pack(key);
+        if (stop_before && stop_before->Contains(packed)) {
+          stopped = true;
+          break;
+        }
+        local.Insert(packed);
+      }
+      octomap::OcTreeKey end_key;
+      if (!end_free || stopped || !tree.coordToKeyChecked(ToOcto(ends[i]), end_key)) continue;
+      const uint64_t packed = Pack(end_key);
+      if (!stop_before || !stop_before->Contains(packed)) local.Insert(packed);
     }
 #pragma omp critical(mapdelta_observed_ray_keys)
-    local.ForEach([&](uint64_t key) { all.Insert(key); });
+    local.ForEach([&](uint64_t key) { free->Insert(key); });
   }
-  return all;
+}
+
+// One keyframe's ray end points in the map frame, each kind reduced on the fly to one centroid
+// per prefilter voxel (neighbouring pixels' rays cross the same voxels).
+struct RayEnds {
+  PointCloud hits;        // valid depth below th_d: the end voxel is occupied
+  PointCloud hit_free;    // where the free part of a hit ray ends (the hit, or k sigma before it)
+  PointCloud measured;    // depth beyond th_d: free up to min(depth, th_f), end voxel free
+  PointCloud unmeasured;  // no depth: free up to th_f or the bound, end voxel free; with a prior
+                          // also kept apart from `measured` (only these stop at prior surfaces)
+};
+
+RayEnds CollectRayEnds(const PinholeCamera& camera, const SE3& T_map_cam, const DepthImage& depth,
+                       const ObservedAreaParams& params, bool separate_unmeasured) {
+  const Eigen::Isometry3f T = T_map_cam.cast<float>();
+  const float inv_fx = static_cast<float>(1.0 / camera.fx),
+              inv_fy = static_cast<float>(1.0 / camera.fy);
+  const float cx = static_cast<float>(camera.cx), cy = static_cast<float>(camera.cy);
+  const float max_depth = static_cast<float>(params.max_depth_m);
+  const float free_depth = static_cast<float>(params.free_ray_m);
+  const float sigma_k = static_cast<float>(params.depth_sigma_factor * params.depth_sigma_per_m2);
+  const float leaf = static_cast<float>(params.prefilter_voxel_m);
+  EndPointFilter hit_filter(leaf), hit_free_filter(leaf), measured_filter(leaf),
+      unmeasured_filter(leaf);
+  EndPointFilter& no_depth_filter = separate_unmeasured ? unmeasured_filter : measured_filter;
+  const int stride = params.pixel_stride;
+  const int nearest_cols = (camera.width + stride - 1) / stride;
+  // The smallest valid depth within +-W pixels, read only at the strided pixels (window_min.hpp:
+  // cv::erode with a 257x257 rectangle over the whole image was 26 % of a server commit's CPU).
+  const std::vector<float> nearest =
+      params.free_ray_bound_window_px > 0
+          ? NearestDepthAround(depth, params.free_ray_bound_window_px, stride)
+          : std::vector<float>();
+  for (int v = 0; v < camera.height; v += stride) {
+    const float y = (static_cast<float>(v) - cy) * inv_fy;
+    for (int u = 0; u < camera.width; u += stride) {
+      const float x = (static_cast<float>(u) - cx) * inv_fx;
+      const auto at_depth = [&](float z) { return T * Point(x * z, y * z, z); };
+      const float d = depth.at(u, v);
+      const bool valid = std::isfinite(d) && d > 0.f;
+      if (valid && d < max_depth) {
+        hit_filter.Add(at_depth(d));
+        // The free part ends k sigma(d) before the hit (sigma grows with d^2).
+        const float free_until = d - sigma_k * d * d;
+        if (sigma_k > 0.f && free_until > 0.f) hit_free_filter.Add(at_depth(free_until));
+      } else if (valid) {
+        // A depth beyond th_d still says the space before it is free: never cast past it.
+        measured_filter.Add(at_depth(std::min(d, free_depth)));
+      } else {
+        // Without depth: th_f (paper), or with the bound no further than the nearest surface
+        // seen around the pixel (nearest[] is +inf when the window holds no depth).
+        const float no_depth =
+            nearest.empty()
+                ? free_depth
+                : std::min(free_depth,
+                           nearest[static_cast<size_t>(v / stride) * nearest_cols + u / stride]);
+        no_depth_filter.Add(at_depth(no_depth));
+      }
+    }
+  }
+  RayEnds ends{
+      hit_filter.Centroids(), {}, measured_filter.Centroids(), unmeasured_filter.Centroids()};
+  // Without the depth uncertainty the free part of a hit ray ends at the hit (the paper).
+  ends.hit_free = sigma_k > 0.f ? hit_free_filter.Centroids() : ends.hits;
+  return ends;
 }
 
 }  // namespace
@@ -119,65 +198,37 @@ ObservedArea::ObservedArea(ObservedArea&&) noexcept = default;
 ObservedArea& ObservedArea::operator=(ObservedArea&&) noexcept = default;
 
 void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_cam,
-                                  const DepthImage& depth, const ObservedAreaParams& params) {
+                                  const DepthImage& depth, const ObservedAreaParams& params,
+                                  const PriorSurfaces* prior) {
   CheckParams(camera, depth, params);
   if (!IsValidPose(T_map_cam, 1e-4)) {
     throw Error(ErrorCode::kInvalidArgument, "observed area: T_map_cam is not a valid rigid transform");
   }
-  // 1-2. End points in the map frame, hits (valid depth below th_d) and free-ray ends (depth
-  //      th_f), reduced on the fly to one centroid per prefilter voxel: neighbouring pixels'
-  //      rays cross the same voxels.
-  const Eigen::Isometry3f T = T_map_cam.cast<float>();
-  const float inv_fx = static_cast<float>(1.0 / camera.fx), inv_fy = static_cast<float>(1.0 / camera.fy);
-  const float cx = static_cast<float>(camera.cx), cy = static_cast<float>(camera.cy);
-  const float max_depth = static_cast<float>(params.max_depth_m);
-  const float free_depth = static_cast<float>(params.free_ray_m);
-  EndPointFilter hit_filter(static_cast<float>(params.prefilter_voxel_m));
-  EndPointFilter free_filter(static_cast<float>(params.prefilter_voxel_m));
-  const int stride = params.pixel_stride;
-  const int nearest_cols = (camera.width + stride - 1) / stride;
-  // The smallest valid depth within +-W pixels, read only at the strided pixels (window_min.hpp:
-  // cv::erode with a 257x257 rectangle over the whole image was 26 % of a server commit's CPU).
-  const std::vector<float> nearest = params.free_ray_bound_window_px > 0
-                                         ? NearestDepthAround(depth, params.free_ray_bound_window_px, stride)
-                                         : std::vector<float>();
-  for (int v = 0; v < camera.height; v += stride) {
-    const float y = (static_cast<float>(v) - cy) * inv_fy;
-    for (int u = 0; u < camera.width; u += stride) {
-      const float d = depth.at(u, v);
-      const bool valid = std::isfinite(d) && d > 0.f;
-      const bool hit = valid && d < max_depth;
-      // A depth beyond th_d still says the space before it is free: never cast past it.
-      // Without depth: th_f (paper), or with the bound no further than the nearest surface seen
-      // around the pixel (nearest[] is +inf when the window holds no depth).
-      const float no_depth = nearest.empty()
-                                 ? free_depth
-                                 : std::min(free_depth, nearest[static_cast<size_t>(v / stride) * nearest_cols + u / stride]);
-      const float z = hit ? d : (valid ? std::min(d, free_depth) : no_depth);
-      const Point p_map = T * Point((static_cast<float>(u) - cx) * inv_fx * z, y * z, z);
-      (hit ? hit_filter : free_filter).Add(p_map);
-    }
+  auto& tree = impl_->tree;
+  if (prior && std::abs(prior->resolution_m() - tree.getResolution()) > 1e-9) {
+    throw Error(ErrorCode::kInvalidArgument, "observed area: prior surfaces at resolution " +
+                                                 std::to_string(prior->resolution_m()) +
+                                                 ", octree at " +
+                                                 std::to_string(tree.getResolution()));
   }
-  const PointCloud hits = hit_filter.Centroids();
-  const PointCloud free_ends = free_filter.Centroids();
+  // 1-2. End points in the map frame, prefiltered per kind.
+  const RayEnds ends = CollectRayEnds(camera, T_map_cam, depth, params, prior != nullptr);
 
   // 3. Voxel keys: end voxels of hits are occupied; all other traversed voxels (and the end
   //    voxels of free rays) are free, unless some hit ended there (as OctoMap's discretized
-  //    insertPointCloud does).
-  auto& tree = impl_->tree;
+  //    insertPointCloud does). Rays without depth stop before the prior's surfaces.
   const octomap::point3d origin = ToOcto(T_map_cam.translation().cast<float>());
-  detail::FlatKeySet occupied(hits.size());
-  for (const auto& p : hits) {
+  detail::FlatKeySet occupied(ends.hits.size());
+  for (const auto& p : ends.hits) {
     octomap::OcTreeKey key;
     if (tree.coordToKeyChecked(ToOcto(p), key)) occupied.Insert(Pack(key));
   }
-  PointCloud all_ends = hits;
-  all_ends.insert(all_ends.end(), free_ends.begin(), free_ends.end());
-  detail::FlatKeySet free = RayKeys(tree, origin, all_ends);
-  for (const auto& p : free_ends) {
-    octomap::OcTreeKey key;
-    if (tree.coordToKeyChecked(ToOcto(p), key)) free.Insert(Pack(key));
-  }
+  detail::FlatKeySet free(8 *
+                          (ends.hit_free.size() + ends.measured.size() + ends.unmeasured.size()));
+  AddRayKeys(tree, origin, ends.hit_free, /*end_free=*/false, nullptr, &free);
+  AddRayKeys(tree, origin, ends.measured, /*end_free=*/true, nullptr, &free);
+  AddRayKeys(tree, origin, ends.unmeasured, /*end_free=*/true,
+             prior ? &prior->impl_->voxels : nullptr, &free);
   // 4. Update (lazily, then the inner nodes once). Each key is updated once per keyframe, so the
   //    order of the updates does not change the tree.
   free.ForEach([&](uint64_t key) {
@@ -191,6 +242,39 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
 bool ObservedArea::IsObserved(const Point& p_map) const {
   if (!p_map.allFinite()) return false;
   return impl_->tree.search(ToOcto(p_map)) != nullptr;
+}
+
+bool ObservedArea::IsSeenFree(const Point& p_map, int keyframes) const {
+  if (keyframes < 1 || keyframes > 4) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "observed area: IsSeenFree needs 1-4 keyframes (OctoMap clamps)");
+  }
+  if (!p_map.allFinite()) return false;
+  const octomap::OcTreeNode* node = impl_->tree.search(ToOcto(p_map));
+  // A little slack: log-odds are floats summed over keyframes.
+  return node && node->getLogOdds() <= keyframes * impl_->tree.getProbMissLog() + 1e-4f;
+}
+
+PriorSurfaces::PriorSurfaces(const PointCloud& prior_map, double resolution_m)
+    : resolution_m_(resolution_m) {
+  if (!(std::isfinite(resolution_m) && resolution_m >= 1e-3)) {
+    throw Error(ErrorCode::kInvalidArgument, "prior surfaces: resolution must be >= 1 mm");
+  }
+  impl_ = std::make_unique<Impl>(resolution_m, prior_map.size());
+  for (const Point& p : prior_map) {
+    octomap::OcTreeKey key;
+    if (p.allFinite() && impl_->grid.coordToKeyChecked(ToOcto(p), key))
+      impl_->voxels.Insert(Pack(key));
+  }
+}
+PriorSurfaces::~PriorSurfaces() = default;
+PriorSurfaces::PriorSurfaces(PriorSurfaces&&) noexcept = default;
+PriorSurfaces& PriorSurfaces::operator=(PriorSurfaces&&) noexcept = default;
+size_t PriorSurfaces::NumVoxels() const { return impl_->voxels.size(); }
+bool PriorSurfaces::Contains(const Point& p_map) const {
+  octomap::OcTreeKey key;
+  return p_map.allFinite() && impl_->grid.coordToKeyChecked(ToOcto(p_map), key) &&
+         impl_->voxels.Contains(Pack(key));
 }
 
 void ObservedArea::Merge(const ObservedArea& other) {

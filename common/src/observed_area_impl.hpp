@@ -5,6 +5,7 @@
 #include <string>
 #include <string_view>
 
+#include "flat_key_set.hpp"
 #include "mapdelta/common/observed_area.hpp"
 
 namespace mapdelta {
@@ -12,6 +13,12 @@ namespace mapdelta {
 struct ObservedArea::Impl {
   explicit Impl(double resolution_m) : tree(resolution_m) {}
   octomap::OcTree tree;
+};
+
+struct PriorSurfaces::Impl {
+  Impl(double resolution_m, size_t expected) : grid(resolution_m), voxels(expected) {}
+  octomap::OcTree grid;       // empty: only its key arithmetic (the observed area's keys)
+  detail::FlatKeySet voxels;  // packed keys of the voxels holding prior points
 };
 
 namespace detail {

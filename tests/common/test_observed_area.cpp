@@ -12,33 +12,15 @@
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/common/window_min.hpp"
+#include "wall_scene.hpp"
 
 namespace mapdelta {
 namespace {
 
-PinholeCamera SmallCamera() {
-  PinholeCamera camera;
-  camera.width = 128;  // rays ~0.24 m apart at 19 m: no gaps between them at 0.4 m voxels
-  camera.height = 96;
-  camera.fx = camera.fy = 80.0;
-  camera.cx = 64.0;
-  camera.cy = 48.0;
-  return camera;
-}
+using testing::SmallCamera;
+using testing::Wall;
 
-DepthImage Wall(const PinholeCamera& camera, float z) {
-  DepthImage depth(camera.width, camera.height);
-  for (auto& d : depth.depth_m) d = z;
-  return depth;
-}
-
-ObservedAreaParams Params() {
-  ObservedAreaParams params;
-  params.resolution_m = 0.4;
-  params.prefilter_voxel_m = 0.2;
-  params.free_ray_m = 20.0;
-  return params;
-}
+ObservedAreaParams Params() { return testing::SmallSceneParams(); }
 
 // Points well inside the frustum (|x|/z, |y|/z below the image half-angles with margin).
 Point InFrustum(std::mt19937& rng, float z_min, float z_max) {

@@ -114,7 +114,8 @@ detect_and_eval() {
   local scene=${seq%%_*}
   local t0; t0=$(now_s)
   $nice_cmd "$bin_detect" --prior "$ds/scenes/original/cloud.pcd" --keyframes "$kf" --out "$dir" \
-    --th-f "$thf" --free-ray-bound "$bound" >>"$log" 2>&1 || die "mapdelta-detect failed on $kf (see $log)"
+    --th-f "$thf" --free-ray-bound "$bound" ${free_space:+--free-space "$free_space"} >>"$log" 2>&1 ||
+    die "mapdelta-detect failed on $kf (see $log)"
   elapsed "$t0" >"$dir/time_s"
   "$bin_eval" changes --original "$ds/scenes/original/cloud.pcd" --changed "$ds/scenes/$scene/cloud.pcd" \
     --new "$dir/new.pcd" --removed "$dir/removed.pcd" --global "$dir/global.pcd" \
@@ -135,7 +136,7 @@ run_json() {
     local b=${name#b}; b=${b%%-*}
     local t=${name##*thf}
     sweep=$(jq -c --argjson b "$b" --argjson t "$t" --slurpfile c "$d/changes.json" \
-      --argjson s "$(cat "$d/time_s")" '. + [{free_ray_bound_px: $b, th_f_m: $t, detect_s: $s, paper: $c[0].paper, reference_variant: $c[0].reference_variant}]' <<<"$sweep")
+      --argjson s "$(cat "$d/time_s")" --slurpfile sum "$d/summary.json" '. + [{free_ray_bound_px: $b, th_f_m: $t, free_space: ($sum[0].free_space // "paper"), detect_s: $s, paper: $c[0].paper, reference_variant: $c[0].reference_variant}]' <<<"$sweep")
   done
   local vio="null"
   [ -f "$run/detect-vio/changes.json" ] && vio=$(jq -c '{paper, reference_variant}' "$run/detect-vio/changes.json")

@@ -45,15 +45,24 @@ AlignFunction GicpAlignment() {
   };
 }
 
-}  // namespace
-
-int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
+// What the command line sets: the detector's parameters and the files.
+struct DetectOptions {
   ChangeDetectionParams params;
   std::string prior_path, keyframe_dir, out_dir, align = "none", format = "pcd";
+  std::string free_space = "paper";
+};
+
+// Parses the command line into `o`; false when --help was asked for. The free-space rule is
+// applied first and the ablation options then override single parts of it.
+bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out, DetectOptions* o) {
+  ChangeDetectionParams& params = o->params;
+  double sigma_per_m2 = 0;
+  int stop_at_prior = 0, min_free_keyframes = 0;
   cli::Parser cli("mapdelta-detect", kDetectDescription);
-  cli.Option("prior", &prior_path, "prior map cloud (.pcd/.ply/.las)", "CLOUD")
-      .Option("keyframes", &keyframe_dir, "keyframe folder (camera.yaml, poses.txt, depth/)", "DIR")
-      .Option("out", &out_dir, "output folder", "DIR")
+  cli.Option("prior", &o->prior_path, "prior map cloud (.pcd/.ply/.las)", "CLOUD")
+      .Option("keyframes", &o->keyframe_dir, "keyframe folder (camera.yaml, poses.txt, depth/)",
+              "DIR")
+      .Option("out", &o->out_dir, "output folder", "DIR")
       .Option("th-ch", &params.th_ch_m, "change threshold th_ch [m]", "M")
       .Option("th-d", &params.observed.max_depth_m,
               "max depth th_d for the global cloud and hit rays [m]", "M")
@@ -63,17 +72,53 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
               "end each no-depth free ray at the nearest valid depth within +-W pixels "
               "(0 = the paper's rule: always th_f)",
               "W")
+      .Option("free-space", &o->free_space,
+              "the rule for the free space behind removed points: paper = Alg. 1-2 as "
+              "published; confident = hit rays end 3 sigma(d) before the hit, rays without depth "
+              "stop at prior surfaces, a removed point's voxel seen free by 2 keyframes "
+              "(change_detection.hpp)",
+              "RULE")
+      .Choices("free-space", {"paper", "confident"})
+      .Option("depth-sigma-per-m2", &sigma_per_m2,
+              "ablation: override the rule's depth uncertainty sigma = C d^2 (0 = off)", "C")
+      .Option("stop-at-prior", &stop_at_prior,
+              "ablation: override whether rays without depth stop at prior surfaces (0 or 1)",
+              "0|1")
+      .Option("removed-min-free-keyframes", &min_free_keyframes,
+              "ablation: override how many keyframes must see a removed point's voxel free "
+              "(0 = any known voxel)")
       .Option("rho-o", &params.observed.resolution_m, "octree resolution rho_o [m]", "M")
       .Option("voxel", &params.cloud_voxel_m, "cloud downsampling before comparing [m]", "M")
       .Option("stride", &params.observed.pixel_stride, "use every N-th pixel for ray casting")
-      .Option("align", &align, "align the global cloud to the prior first")
+      .Option("align", &o->align, "align the global cloud to the prior first")
       .Choices("align", {"none", "gicp"})
-      .Option("format", &format, "file format of the written clouds (global, new, removed)")
+      .Option("format", &o->format, "file format of the written clouds (global, new, removed)")
       .Choices("format", {"pcd", "ply", "las"})
       .Require({"prior", "keyframes", "out"})
       .Footer(cli::kExitCodesFooter);
-  if (!cli.Parse(args, out)) return cli::kExitOk;
+  if (!cli.Parse(args, out)) return false;
   params.observed.prefilter_voxel_m = params.observed.resolution_m;
+  ApplyFreeSpaceRule(o->free_space, &params);
+  if (cli.Given("depth-sigma-per-m2")) params.observed.depth_sigma_per_m2 = sigma_per_m2;
+  if (cli.Given("stop-at-prior")) {
+    if (stop_at_prior != 0 && stop_at_prior != 1)
+      cli::FailUsage("mapdelta-detect",
+                     "--stop-at-prior: expected 0 or 1, got " + std::to_string(stop_at_prior));
+    params.free_rays_stop_at_prior = stop_at_prior == 1;
+  }
+  if (cli.Given("removed-min-free-keyframes"))
+    params.removed_min_free_keyframes = min_free_keyframes;
+  return true;
+}
+
+}  // namespace
+
+int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
+  DetectOptions options;
+  if (!ParseDetectOptions(args, out, &options)) return cli::kExitOk;
+  const ChangeDetectionParams& params = options.params;
+  const std::string &prior_path = options.prior_path, &keyframe_dir = options.keyframe_dir;
+  const std::string &out_dir = options.out_dir, &align = options.align, &format = options.format;
 
   const auto start = std::chrono::steady_clock::now();
   MD_LOG(kInfo, "reading prior " << prior_path);
@@ -108,16 +153,25 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
   std::vector<double> T_row_major;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) T_row_major.push_back(result.T_prior_global.matrix()(r, c));
-  nlohmann::json summary = {
-      {"prior", prior_path}, {"keyframes", keyframes.keyframes.size()},
-      {"th_ch_m", params.th_ch_m}, {"th_d_m", params.observed.max_depth_m},
-      {"th_f_m", params.observed.free_ray_m},
-      {"free_ray_bound_window_px", params.observed.free_ray_bound_window_px}, {"rho_o_m", params.observed.resolution_m},
-      {"cloud_voxel_m", params.cloud_voxel_m}, {"align", align},
-      {"T_prior_global", T_row_major},
-      {"global_points", result.global.size()}, {"observed_prior_points", result.observed_prior.size()},
-      {"new_points", result.changes.new_points.size()},
-      {"removed_points", result.changes.removed_points.size()}, {"seconds", seconds}};
+  nlohmann::json summary = {{"prior", prior_path},
+                            {"keyframes", keyframes.keyframes.size()},
+                            {"th_ch_m", params.th_ch_m},
+                            {"th_d_m", params.observed.max_depth_m},
+                            {"th_f_m", params.observed.free_ray_m},
+                            {"free_ray_bound_window_px", params.observed.free_ray_bound_window_px},
+                            {"free_space", options.free_space},
+                            {"depth_sigma_per_m2", params.observed.depth_sigma_per_m2},
+                            {"free_rays_stop_at_prior", params.free_rays_stop_at_prior},
+                            {"removed_min_free_keyframes", params.removed_min_free_keyframes},
+                            {"rho_o_m", params.observed.resolution_m},
+                            {"cloud_voxel_m", params.cloud_voxel_m},
+                            {"align", align},
+                            {"T_prior_global", T_row_major},
+                            {"global_points", result.global.size()},
+                            {"observed_prior_points", result.observed_prior.size()},
+                            {"new_points", result.changes.new_points.size()},
+                            {"removed_points", result.changes.removed_points.size()},
+                            {"seconds", seconds}};
   std::ofstream(out_dir + "/summary.json") << std::setw(2) << summary << "\n";
   out << "global " << result.global.size() << " points, observed prior " << result.observed_prior.size()
       << ", new " << result.changes.new_points.size() << ", removed "

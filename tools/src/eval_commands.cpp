@@ -23,6 +23,11 @@ usage:
   mapdelta-eval changes --original CLOUD --changed CLOUD --new CLOUD --removed CLOUD
                         --global CLOUD --observed OCTREE.bt [--th-ch M] [--rho-p M] [--json FILE]
       The paper's R_new, P_new, R_rm, P_rm and the reference-evaluation variant.
+  mapdelta-eval removed-breakdown --original CLOUD --changed CLOUD --removed CLOUD --global CLOUD
+                        --observed OCTREE.bt --keyframes DIR [--gt-depth DIR]
+                        [--removed-at-gt-poses CLOUD] [--th-ch M] [--rho-p M] [--th-d M]
+                        [--th-f M] [--free-ray-bound W] [--json FILE]
+      Where the detected removed points come from (causes, range, view angle).
   mapdelta-eval COMMAND --help   a command's options
 
 Exit codes: 0 success, 1 runtime failure or unreadable/malformed input, 2 usage or configuration error.

@@ -16,7 +16,24 @@ struct ChangeDetectionParams {
   double th_ch_m = 3.2;          // change threshold (paper; the reference evaluation used 2.4)
   double cloud_voxel_m = 0.8;    // P_g and P_p are voxel-downsampled to this before comparing
   ObservedAreaParams observed;   // rho_o, th_d (also the global cloud's depth cut), th_f
+  // Not in the paper (issue 21; the defaults are the paper's rule):
+  // rays of pixels without depth end before the prior's surfaces (PriorSurfaces of the prior);
+  bool free_rays_stop_at_prior = false;
+  // a removed point's own voxel must be seen free by this many keyframes net of hits
+  // (ObservedArea::IsSeenFree, 1-4); 0 = any known voxel (the paper's Alg. 1 test).
+  int removed_min_free_keyframes = 0;
 };
+
+// The named rules of the free space behind P_rm (th_f, th_d, rho_o and the free-ray bound stay
+// as the caller sets them):
+//   "paper"     - the paper's Alg. 1-2: a pixel without depth sees th_f, a hit ray is free to
+//                 its end, any known voxel makes a prior point observed;
+//   "confident" - free space only where the evidence is confident (issue 21): hit rays end
+//                 3 sigma(d) before the hit (sigma = 1.25e-3 d^2: 0.5 px disparity at the
+//                 paper rig's fx * B = 400 m px), rays without depth stop at prior surfaces,
+//                 and a removed point's voxel must be seen free by 2 keyframes.
+// Throws Error(kInvalidArgument) for any other name.
+void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params);
 
 // Alg. 1: the points of `prior` that lie in A_obs or within th_ch of `global`.
 PointCloud ObservedPriorCloud(const PointCloud& prior, const PointCloud& global,

@@ -26,6 +26,35 @@ struct ObservedAreaParams {
   // which then become false "removed" points. Space before the nearest surface seen around
   // the pixel is known free; beyond it is unknown.
   int free_ray_bound_window_px = 0;
+  // Confident free space (issue 21; not in the paper; 0 = the paper). A stereo depth d is
+  // uncertain by sigma(d) = depth_sigma_per_m2 * d^2 (z = fx * B / disparity, so a disparity
+  // error of s px moves z by z^2 * s / (fx * B)). A hit ray then proves free space only up to
+  // d - depth_sigma_factor * sigma(d): the last stretch may be the surface itself seen too far
+  // (a wall's depth overshooting behind it would otherwise carve the wall).
+  double depth_sigma_per_m2 = 0.0;
+  double depth_sigma_factor = 3.0;
+};
+
+// The prior map's surfaces as voxels of the observed area's grid (issue 21, not in the paper).
+// Given to InsertKeyframe, a ray of a pixel without depth ends before the first prior voxel it
+// meets: the pixel saw nothing, and a prior surface along it may be a textureless wall stereo
+// could not match, so the ray proves nothing at or behind that surface. Rays of measured depths
+// are not cut (a depth confidently beyond a prior surface is the evidence that it is gone).
+class PriorSurfaces {
+ public:
+  PriorSurfaces(const PointCloud& prior_map, double resolution_m);
+  ~PriorSurfaces();
+  PriorSurfaces(PriorSurfaces&&) noexcept;
+  PriorSurfaces& operator=(PriorSurfaces&&) noexcept;
+  double resolution_m() const { return resolution_m_; }
+  size_t NumVoxels() const;
+  bool Contains(const Point& p_map) const;
+
+ private:
+  friend class ObservedArea;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  double resolution_m_;
 };
 
 class ObservedArea {
@@ -40,13 +69,20 @@ class ObservedArea {
   // Rays from the camera centre to every valid depth < max_depth_m (end voxel occupied, the
   // rest free), and free rays to depth free_ray_m for pixels with no depth (for a depth beyond
   // max_depth_m: to min(depth, free_ray_m), space known to be free; with
-  // free_ray_bound_window_px > 0 a no-depth ray is shortened, see ObservedAreaParams). Depth is along the optical
-  // axis, so is a free ray's length. End points are voxel-filtered first. Throws
+  // free_ray_bound_window_px > 0 a no-depth ray is shortened, see ObservedAreaParams). Depth is
+  // along the optical axis, so is a free ray's length. End points are voxel-filtered first. Throws
   // Error(kInvalidArgument) when the depth image does not match the camera or params are bad.
+  // With `prior` (same resolution), rays of pixels without depth end before the prior's
+  // surfaces (see PriorSurfaces).
   void InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_cam, const DepthImage& depth,
-                      const ObservedAreaParams& params);
+                      const ObservedAreaParams& params, const PriorSurfaces* prior = nullptr);
   // True if the voxel holding p_map is known (free or occupied).
   bool IsObserved(const Point& p_map) const;
+  // True if the voxel holding p_map is free with the evidence of at least `keyframes` free
+  // observations net of hits (OctoMap log-odds <= keyframes * the log-odds of one miss). The
+  // per-point evidence for a removed point: one keyframe's stray ray does not make a removal.
+  // Evidence saturates at OctoMap's clamping (about 4.9 misses), so keyframes is at most 4.
+  bool IsSeenFree(const Point& p_map, int keyframes) const;
   // Adds the other area's evidence (log-odds) voxel by voxel; resolutions must match.
   void Merge(const ObservedArea& other);
 

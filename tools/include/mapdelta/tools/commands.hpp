@@ -14,6 +14,9 @@ extern const char* const kEvalUsage;  // the command list; each command has its 
 int RunEvalAte(const std::vector<std::string>& args, std::ostream& out);
 // mapdelta-eval changes --original .. --changed .. --new .. --removed .. --global .. --observed ..
 int RunEvalChanges(const std::vector<std::string>& args, std::ostream& out);
+// mapdelta-eval removed-breakdown --original .. --changed .. --removed .. --global .. --observed ..
+//   --keyframes DIR [--gt-depth DIR] [--removed-at-gt-poses CLOUD]: where false removals come from
+int RunEvalRemovedBreakdown(const std::vector<std::string>& args, std::ostream& out);
 // mapdelta-detect --prior CLOUD --keyframes DIR --out DIR [...]
 int RunDetect(const std::vector<std::string>& args, std::ostream& out);
 

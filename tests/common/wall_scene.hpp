@@ -1,0 +1,35 @@
+#pragma once
+// The small camera and flat-wall depth images the observed-area tests share.
+#include "mapdelta/common/camera.hpp"
+#include "mapdelta/common/depth_image.hpp"
+#include "mapdelta/common/observed_area.hpp"
+
+namespace mapdelta::testing {
+
+inline PinholeCamera SmallCamera() {
+  PinholeCamera camera;
+  camera.width = 128;  // rays ~0.24 m apart at 19 m: no gaps between them at 0.4 m voxels
+  camera.height = 96;
+  camera.fx = camera.fy = 80.0;
+  camera.cx = 64.0;
+  camera.cy = 48.0;
+  return camera;
+}
+
+// Every pixel at depth z (0 = no depth anywhere).
+inline DepthImage Wall(const PinholeCamera& camera, float z) {
+  DepthImage depth(camera.width, camera.height);
+  for (auto& d : depth.depth_m) d = z;
+  return depth;
+}
+
+// The paper's rule at a 0.4 m octree, 0.2 m end-point prefilter and th_f 20 m.
+inline ObservedAreaParams SmallSceneParams() {
+  ObservedAreaParams params;
+  params.resolution_m = 0.4;
+  params.prefilter_voxel_m = 0.2;
+  params.free_ray_m = 20.0;
+  return params;
+}
+
+}  // namespace mapdelta::testing
