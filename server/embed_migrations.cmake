@@ -1,5 +1,10 @@
-# Generates a .cpp that embeds every migrations/NNN_name.sql as a raw string literal.
-# Inputs: MIGRATIONS_DIR, OUTPUT.
+# Generates a .cpp that embeds every NNN_name.sql of a folder as a raw string literal.
+# Inputs: MIGRATIONS_DIR, OUTPUT; SYMBOL (default EmbeddedMigrations): the function that returns
+# them (a second backend with its own folder embeds it under its own name, declared beside
+# EmbeddedMigrations in migrations.hpp).
+if(NOT SYMBOL)
+  set(SYMBOL EmbeddedMigrations)
+endif()
 file(GLOB sql_files ${MIGRATIONS_DIR}/[0-9][0-9][0-9]_*.sql)
 list(SORT sql_files)
 set(body "")
@@ -13,7 +18,7 @@ endforeach()
 file(WRITE ${OUTPUT}.tmp "// Generated from migrations/*.sql by server/embed_migrations.cmake. Do not edit.
 #include \"migrations.hpp\"
 namespace mapdelta::server {
-const std::vector<Migration>& EmbeddedMigrations() {
+const std::vector<Migration>& ${SYMBOL}() {
   static const std::vector<Migration> kAll = {
 ${body}  };
   return kAll;

@@ -10,7 +10,7 @@
 namespace mapdelta::server {
 
 void JobContext::Progress(double fraction, const std::string& message) {
-  storage.UpdateJobProgress(job.id, std::clamp(fraction, 0.0, 1.0), message);
+  storage.jobs().UpdateProgress(job.id, std::clamp(fraction, 0.0, 1.0), message);
 }
 
 void JobContext::CheckShutdown() {
@@ -19,7 +19,7 @@ void JobContext::CheckShutdown() {
 
 void JobContext::CheckStop() {
   if (shutting_down()) throw JobInterrupted(false);
-  if (storage.IsCancelRequested(job.id)) throw JobInterrupted(true);
+  if (storage.jobs().IsCancelRequested(job.id)) throw JobInterrupted(true);
 }
 
 Json ToJson(const ClassifyConfig& c) {
@@ -47,7 +47,8 @@ ClassifyConfig ClassifyConfigFromJson(const Json& j, const ClassifyConfig& base)
 }
 
 ClassifyConfig CurrentClassifyConfig(Storage& storage, const ClassifyConfig& fallback) {
-  if (auto text = storage.GetSetting("classify")) return ClassifyConfigFromJson(Json::parse(*text), fallback);
+  if (auto text = storage.tiles().GetSetting("classify"))
+    return ClassifyConfigFromJson(Json::parse(*text), fallback);
   return fallback;
 }
 
@@ -65,7 +66,7 @@ std::vector<TileId> JobTiles(Storage& storage, const TileGrid& grid, const Json&
       tiles.push_back(t);
     }
   } else {
-    tiles = storage.ListAggregatedTiles(std::nullopt);
+    tiles = storage.tiles().ListAggregated(std::nullopt);
   }
   return tiles;
 }
@@ -98,13 +99,13 @@ void ReclassifyAround(JobContext& ctx, const TileGrid& grid, const std::vector<T
   std::vector<TileChangesRecord> records;
   for (const TileId& t : around) {
     ctx.CheckShutdown();
-    if (!ctx.storage.GetTileState(t)) continue;
+    if (!ctx.storage.tiles().GetState(t)) continue;
     TileClassification c = ClassifyTile(ctx.storage, grid, t, version, cc,
                                         ctx.config.pipeline.octree_resolution_m, cache);
     c.record.updated_ms = NowMs();
     records.push_back(std::move(c.record));
   }
-  ctx.storage.ApplyTileChanges(0, records);
+  ctx.storage.tiles().ApplyChanges(0, records);
 }
 
 }  // namespace
@@ -117,7 +118,7 @@ Json RunRefreshJob(JobContext& ctx) {
   const ClassifyConfig cc = CurrentClassifyConfig(ctx.storage, ctx.config.classify);
 
   // Resumed after its version was written (crash or shutdown in step 3): finish step 3 only.
-  for (const PriorVersionRecord& v : ctx.storage.ListPriorVersions()) {
+  for (const PriorVersionRecord& v : ctx.storage.priors().ListVersions()) {
     if (v.job_id != ctx.job.id || !ctx.job.result_json) continue;
     Json result = Json::parse(*ctx.job.result_json);
     std::vector<TileId> refreshed;
@@ -127,7 +128,7 @@ Json RunRefreshJob(JobContext& ctx) {
     return result;
   }
 
-  const std::optional<int64_t> latest = ctx.storage.LatestPriorVersion();
+  const std::optional<int64_t> latest = ctx.storage.priors().LatestVersion();
   if (!latest) throw ApiError(ApiCode::kNoPrior, "no prior map to refresh");
   ObservedCache cache(ctx.storage);
   // 1. Compute every tile's new points in memory; nothing is written until step 2.
@@ -137,7 +138,7 @@ Json RunRefreshJob(JobContext& ctx) {
   for (size_t i = 0; i < tiles.size(); ++i) {
     ctx.CheckStop();
     const TileId& tile = tiles[i];
-    auto record = ctx.storage.GetTileChanges(tile);
+    auto record = ctx.storage.tiles().GetChanges(tile);
     if (!record) continue;
     std::vector<ChangePoint> changes = DecodeChanges(record->changes);
     if (record->prior_version != *latest) {  // classified against an older prior: redo
@@ -154,7 +155,7 @@ Json RunRefreshJob(JobContext& ctx) {
     if (removed.empty() && added.empty()) continue;
     PointCloud points;
     int64_t from_version = 0;
-    if (auto prior = ctx.storage.GetPriorTile(tile, *latest)) {
+    if (auto prior = ctx.storage.priors().GetTile(tile, *latest)) {
       from_version = prior->version;
       for (const Point& p : DecodePoints(prior->points)) {
         if (!removed.count(p)) points.push_back(p);
@@ -182,7 +183,8 @@ Json RunRefreshJob(JobContext& ctx) {
   Json result{{"prior_version", *latest + 1}, {"parent_version", *latest}, {"tiles", tiles_report},
               {"min_confidence", min_confidence}, {"min_support", min_support}};
   ctx.CheckStop();  // the last point where a cancel stops the refresh
-  const int64_t version = ctx.storage.ApplyRefresh(ctx.job.id, meta, writes, result.dump(), NowMs());
+  const int64_t version =
+      ctx.storage.tiles().ApplyRefresh(ctx.job.id, meta, writes, result.dump(), NowMs());
   result["prior_version"] = version;
 
   // 3. Neighbours of refreshed tiles saw the old prior in their margins: reclassify them.
@@ -197,20 +199,20 @@ Json RunReclassifyJob(JobContext& ctx) {
   const ClassifyConfig cc = ClassifyConfigFromJson(params.value("params", Json::object()),
                                                    CurrentClassifyConfig(ctx.storage, ctx.config.classify));
   // The new thresholds become current first, so that later commits use them too.
-  ctx.storage.PutSetting("classify", ToJson(cc).dump());
+  ctx.storage.tiles().PutSetting("classify", ToJson(cc).dump());
   const TileGrid grid(ctx.config.storage.tile_size_m);
-  const int64_t version = ctx.storage.LatestPriorVersion().value_or(0);
-  const std::set<std::string> done = ctx.storage.JobTilesDone(ctx.job.id);
+  const int64_t version = ctx.storage.priors().LatestVersion().value_or(0);
+  const std::set<std::string> done = ctx.storage.jobs().TilesDone(ctx.job.id);
   ObservedCache cache(ctx.storage);
   const std::vector<TileId> tiles = JobTiles(ctx.storage, grid, params);
   int64_t new_points = 0, removed_points = 0, count = 0;
   for (size_t i = 0; i < tiles.size(); ++i) {
     ctx.CheckStop();
-    if (done.count(tiles[i].ToString()) || !ctx.storage.GetTileState(tiles[i])) continue;
+    if (done.count(tiles[i].ToString()) || !ctx.storage.tiles().GetState(tiles[i])) continue;
     TileClassification c = ClassifyTile(ctx.storage, grid, tiles[i], version, cc,
                                         ctx.config.pipeline.octree_resolution_m, cache);
     c.record.updated_ms = NowMs();
-    ctx.storage.ApplyTileChanges(ctx.job.id, {c.record});
+    ctx.storage.tiles().ApplyChanges(ctx.job.id, {c.record});
     new_points += c.record.new_count;
     removed_points += c.record.removed_count;
     ++count;

@@ -45,7 +45,7 @@ CreatedToken CreateToken(Storage& storage, const std::string& name, Role role, i
   t.record.role = role;
   t.record.created_ms = now_ms;
   t.secret = "mdt_" + t.record.id + "_" + RandomHex(16);
-  storage.InsertToken(t.record, Sha256Hex(t.secret));
+  storage.tokens().Insert(t.record, Sha256Hex(t.secret));
   return t;
 }
 
@@ -56,7 +56,7 @@ std::optional<TokenRecord> Authenticate(Storage& storage, std::string_view heade
   }
   const std::string_view secret = header.substr(kPrefix.size());
   if (secret.size() > 256) return std::nullopt;
-  return storage.FindActiveTokenByHash(Sha256Hex(secret));
+  return storage.tokens().FindActiveByHash(Sha256Hex(secret));
 }
 
 bool RoleAllows(Role have, std::initializer_list<Role> allowed) {

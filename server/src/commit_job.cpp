@@ -65,7 +65,7 @@ Registration AlignToPrior(JobContext& ctx, const TileGrid& grid, const PointClou
   const AxisAlignedBox b = Bounds(session_cloud);
   PointCloud prior;
   for (const TileId& t : grid.TilesInRect(b.min.x() - 5, b.min.y() - 5, b.max.x() + 5, b.max.y() + 5)) {
-    if (auto tile = ctx.storage.GetPriorTile(t, *prior_version)) {
+    if (auto tile = ctx.storage.priors().GetTile(t, *prior_version)) {
       const PointCloud pts = DecodePoints(tile->points);
       prior.insert(prior.end(), pts.begin(), pts.end());
     }
@@ -103,7 +103,7 @@ Json RunCommitJob(JobContext& ctx) {
   const auto t0 = std::chrono::steady_clock::now();
   const Json params = Json::parse(ctx.job.params_json);
   const int64_t session_id = params.at("session_id").get<int64_t>();
-  const auto session = ctx.storage.GetSession(session_id);
+  const auto session = ctx.storage.sessions().Get(session_id);
   if (!session) throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " is gone");
   const PinholeCamera camera = CameraFromJson(Json::parse(session->camera_json), ctx.config.ingest);
   const PipelineConfig& pc = ctx.config.pipeline;
@@ -115,7 +115,7 @@ Json RunCommitJob(JobContext& ctx) {
   const auto t1 = std::chrono::steady_clock::now();
 
   // 2. Align to the prior.
-  const std::optional<int64_t> prior_version = ctx.storage.LatestPriorVersion();
+  const std::optional<int64_t> prior_version = ctx.storage.priors().LatestVersion();
   const Registration reg = AlignToPrior(ctx, grid, cloud, prior_version);
   cloud = Transform(cloud, reg.T_correction);
   ctx.CheckStop();
@@ -126,7 +126,8 @@ Json RunCommitJob(JobContext& ctx) {
   const ObservedArea& observed = session_observed.area;
   const std::vector<Eigen::Vector3d>& camera_centres = session_observed.camera_centres;
   const std::string observed_bytes = observed.SerializeBinary();
-  ctx.storage.PutSessionObserved(session_id, Bytes(observed_bytes.begin(), observed_bytes.end()));
+  ctx.storage.sessions().PutObserved(session_id,
+                                     Bytes(observed_bytes.begin(), observed_bytes.end()));
   const auto t3 = std::chrono::steady_clock::now();
 
   // 4. Touched tiles: where the session has points, or observed some prior point.
@@ -139,7 +140,7 @@ Json RunCommitJob(JobContext& ctx) {
     for (const TileId& t : grid.TilesInRect(b.min.x() - reach, b.min.y() - reach,
                                             b.max.x() + reach, b.max.y() + reach)) {
       if (by_tile.count(t)) continue;
-      auto prior = ctx.storage.GetPriorTile(t, *prior_version);
+      auto prior = ctx.storage.priors().GetTile(t, *prior_version);
       if (!prior || prior->point_count == 0) continue;
       for (const Point& p : DecodePoints(prior->points)) {
         if (observed.IsObserved(p)) {
@@ -153,13 +154,13 @@ Json RunCommitJob(JobContext& ctx) {
   ctx.CheckStop();
   // All touched tiles in one transaction, so a crash leaves either none or all of them with
   // the session; on resume, any tile in job_tiles means the whole step is done.
-  if (ctx.storage.JobTilesDone(ctx.job.id).empty()) {
+  if (ctx.storage.jobs().TilesDone(ctx.job.id).empty()) {
     std::vector<TileStateRecord> states;
     for (const auto& [tile, points] : by_tile) {
       TileStateRecord state;
       state.tile = tile;
       TileAggregate agg;
-      if (auto existing = ctx.storage.GetTileState(tile)) {
+      if (auto existing = ctx.storage.tiles().GetState(tile)) {
         state.sessions = existing->sessions;
         agg = DecodeAggregate(existing->aggregate);
       }
@@ -171,7 +172,7 @@ Json RunCommitJob(JobContext& ctx) {
       states.push_back(std::move(state));
     }
     ctx.CheckShutdown();
-    ctx.storage.ApplyTileUpdates(ctx.job.id, states, NowMs());
+    ctx.storage.tiles().ApplyUpdates(ctx.job.id, states, NowMs());
     ctx.metrics.job_tiles_applied += static_cast<int64_t>(states.size());
   }
   ctx.Progress(0.85, "aggregated " + std::to_string(by_tile.size()) + " tiles");
@@ -187,7 +188,7 @@ Json RunCommitJob(JobContext& ctx) {
   }
   std::vector<TileId> to_classify;
   for (const TileId& t : to_classify_set) {
-    if (ctx.storage.GetTileState(t)) to_classify.push_back(t);
+    if (ctx.storage.tiles().GetState(t)) to_classify.push_back(t);
   }
   const ClassifyConfig cc = CurrentClassifyConfig(ctx.storage, ctx.config.classify);
   ObservedCache cache(ctx.storage);
@@ -199,14 +200,14 @@ Json RunCommitJob(JobContext& ctx) {
                               pc.octree_resolution_m, cache).record;
     records[i].updated_ms = NowMs();
   });
-  ctx.storage.ApplyTileChanges(0, records);
+  ctx.storage.tiles().ApplyChanges(0, records);
   int64_t new_points = 0, removed_points = 0;
   for (const auto& r : records) {
     new_points += r.new_count;
     removed_points += r.removed_count;
   }
   const size_t classified = records.size();
-  ctx.storage.FinishSession(session_id, "committed", reg.report.dump(), NowMs());
+  ctx.storage.sessions().Finish(session_id, SessionState::kCommitted, reg.report.dump(), NowMs());
   const auto t5 = std::chrono::steady_clock::now();
   auto secs = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
   return Json{{"session_id", session_id},

@@ -47,31 +47,31 @@ SessionCloud BuildSessionCloud(JobContext& ctx, const SessionRecord& session,
   ParallelFor(chunks, pc.threads, [&](int64_t c) {
     ctx.CheckStop();
     bool stale = false;
-    ctx.storage.ForEachKeyframe(session.id, c * chunk, (c + 1) * chunk, /*with_depth=*/false,
-                                [&](const KeyframeRecord& k) {
-      if (k.cloud.empty() || k.cloud_params != params) {
-        stale = true;
-        return;
-      }
-      const PointCloud pts = DecodePoints(k.cloud);
-      parts[c].insert(parts[c].end(), pts.begin(), pts.end());
-    });
+    ctx.storage.sessions().ForEachKeyframe(
+        session.id, c * chunk, (c + 1) * chunk, /*with_depth=*/false, [&](const KeyframeRecord& k) {
+          if (k.cloud.empty() || k.cloud_params != params) {
+            stale = true;
+            return;
+          }
+          const PointCloud pts = DecodePoints(k.cloud);
+          parts[c].insert(parts[c].end(), pts.begin(), pts.end());
+        });
     if (!stale) return progress.ChunkDone();
     // Rare (keyframes stored before migration 002, or pipeline parameters changed since the
     // upload): redo the chunk in seq order, decoding the PNGs of the stale keyframes only.
     parts[c].clear();
-    ctx.storage.ForEachKeyframe(session.id, c * chunk, (c + 1) * chunk, /*with_depth=*/true,
-                                [&](const KeyframeRecord& k) {
-      PointCloud pts;
-      if (k.cloud.empty() || k.cloud_params != params) {
-        pts = KeyframeCloud(camera, PoseFromJson(Json::parse(k.pose_json), "pose"),
-                            DecodeDepthPng(k.depth_png, session.depth_scale), pc);
-        ++recomputed;
-      } else {
-        pts = DecodePoints(k.cloud);
-      }
-      parts[c].insert(parts[c].end(), pts.begin(), pts.end());
-    });
+    ctx.storage.sessions().ForEachKeyframe(
+        session.id, c * chunk, (c + 1) * chunk, /*with_depth=*/true, [&](const KeyframeRecord& k) {
+          PointCloud pts;
+          if (k.cloud.empty() || k.cloud_params != params) {
+            pts = KeyframeCloud(camera, PoseFromJson(Json::parse(k.pose_json), "pose"),
+                                DecodeDepthPng(k.depth_png, session.depth_scale), pc);
+            ++recomputed;
+          } else {
+            pts = DecodePoints(k.cloud);
+          }
+          parts[c].insert(parts[c].end(), pts.begin(), pts.end());
+        });
     progress.ChunkDone();
   });
   SessionCloud out;
@@ -106,12 +106,13 @@ SessionObserved BuildSessionObserved(JobContext& ctx, const SessionRecord& sessi
   ParallelFor(chunks, pc.threads, [&](int64_t c) {
     ctx.CheckStop();
     ObservedArea area(pc.octree_resolution_m);
-    ctx.storage.ForEachKeyframe(session.id, c * chunk, (c + 1) * chunk, /*with_depth=*/true,
-                                [&](const KeyframeRecord& k) {
-      const SE3 T = T_correction * PoseFromJson(Json::parse(k.pose_json), "pose");
-      area.InsertKeyframe(camera, T, DecodeDepthPng(k.depth_png, session.depth_scale), op);
-      if (k.seq >= 0 && k.seq < static_cast<int64_t>(centres.size())) centres[k.seq] = T.translation();
-    });
+    ctx.storage.sessions().ForEachKeyframe(
+        session.id, c * chunk, (c + 1) * chunk, /*with_depth=*/true, [&](const KeyframeRecord& k) {
+          const SE3 T = T_correction * PoseFromJson(Json::parse(k.pose_json), "pose");
+          area.InsertKeyframe(camera, T, DecodeDepthPng(k.depth_png, session.depth_scale), op);
+          if (k.seq >= 0 && k.seq < static_cast<int64_t>(centres.size()))
+            centres[k.seq] = T.translation();
+        });
     areas[c] = std::move(area);
     progress.ChunkDone();
   });

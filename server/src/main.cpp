@@ -166,7 +166,7 @@ int TokenCreate(const std::vector<std::string>& args) {
       .Footer(cli::kExitCodesFooter);
   if (!cli.Parse(args, std::cout)) return cli::kExitOk;
   auto storage = OpenStorageForAdmin(config_path);
-  const auto role = mds::ParseRole(role_name);  // one of the choices above
+  const auto role = mds::ParseEnum<mds::Role>(role_name);  // one of the choices above
   const auto t = mds::CreateToken(*storage, name, *role, mds::NowMs());
   std::printf("id: %s\nrole: %s\nname: %s\ntoken: %s\n", t.record.id.c_str(),
               std::string(mds::ToString(*role)).c_str(), t.record.name.c_str(), t.secret.c_str());
@@ -183,7 +183,7 @@ int TokenRevoke(const std::vector<std::string>& args) {
   cli.Footer(cli::kExitCodesFooter);
   if (!cli.Parse(args, std::cout)) return cli::kExitOk;
   auto storage = OpenStorageForAdmin(config_path);
-  if (!storage->RevokeToken(id, mds::NowMs()))
+  if (!storage->tokens().Revoke(id, mds::NowMs()))
     throw md::Error(md::ErrorCode::kNotFound, "no active token with id " + id);
   std::printf("revoked %s\n", id.c_str());
   return 0;
@@ -196,7 +196,7 @@ int TokenList(const std::vector<std::string>& args) {
   AddConfigOption(cli, &config_path).Footer(cli::kExitCodesFooter);
   if (!cli.Parse(args, std::cout)) return cli::kExitOk;
   auto storage = OpenStorageForAdmin(config_path);
-  for (const auto& t : storage->ListTokens()) {
+  for (const auto& t : storage->tokens().List()) {
     std::printf("%s  %-7s  %-8s  %s\n", t.id.c_str(), std::string(mds::ToString(t.role)).c_str(),
                 t.revoked_ms ? "revoked" : "active", t.name.c_str());
   }

@@ -90,14 +90,14 @@ Json MapService::CreateSession(const Json& body) {
   r.camera_json = CameraToJson(camera).dump();
   r.depth_scale = depth_scale;
   r.created_ms = NowMs();
-  const int64_t id = storage_->CreateSession(r);
+  const int64_t id = storage_->sessions().Create(r);
   MD_LOG(kInfo, "session " << id << " created for vehicle '" << vehicle << "'");
   return GetSession(id);
 }
 
 Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
                              const Bytes& depth_png, bool* created) {
-  const auto session = storage_->GetSession(session_id);
+  const auto session = storage_->sessions().Get(session_id);
   if (!session) throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " does not exist");
   // Validate everything before touching storage: nothing is stored half-way.
   try {
@@ -143,7 +143,7 @@ Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
     k.content_sha = Sha256Hex(std::to_string(t_ns) + "|" + k.pose_json + "|" +
                               k.covariance_json.value_or("null") + "|" +
                               std::string(depth_png.begin(), depth_png.end()));
-    switch (storage_->PutKeyframe(session_id, k)) {
+    switch (storage_->sessions().PutKeyframe(session_id, k)) {
       case PutKeyframeOutcome::kStored:
         *created = true;
         metrics_.keyframes_ingested += 1;
@@ -156,11 +156,13 @@ Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
       case PutKeyframeOutcome::kOutOfOrder:
         throw ApiError(ApiCode::kSeqOutOfOrder,
                        "seq " + std::to_string(seq) + " is not the next one (expected " +
-                           std::to_string(storage_->GetSession(session_id)->keyframe_count) + ")");
+                           std::to_string(storage_->sessions().Get(session_id)->keyframe_count) +
+                           ")");
       case PutKeyframeOutcome::kTimeNotIncreasing:
         throw ApiError(ApiCode::kTimeNotIncreasing, "t_ns must be greater than the previous keyframe's");
       case PutKeyframeOutcome::kSessionNotOpen:
-        throw ApiError(ApiCode::kSessionNotOpen, "session is " + session->state + ", not open");
+        throw ApiError(ApiCode::kSessionNotOpen,
+                       "session is " + std::string(ToString(session->state)) + ", not open");
       case PutKeyframeOutcome::kNoSession:
         throw ApiError(ApiCode::kNotFound, "session does not exist");
     }
@@ -172,34 +174,40 @@ Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
 }
 
 Json MapService::CommitSession(int64_t session_id) {
-  const auto session = storage_->GetSession(session_id);
+  const auto session = storage_->sessions().Get(session_id);
   if (!session) throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " does not exist");
   if (session->keyframe_count == 0) {
     throw ApiError(ApiCode::kInvalidArgument, "session has no keyframes to commit");
   }
-  const auto job = storage_->CommitSession(session_id, Json{{"session_id", session_id}}.dump(), NowMs());
-  if (!job) throw ApiError(ApiCode::kSessionNotOpen, "session is " + session->state + ", not open");
+  const auto job =
+      storage_->sessions().Commit(session_id, Json{{"session_id", session_id}}.dump(), NowMs());
+  if (!job) {
+    throw ApiError(ApiCode::kSessionNotOpen,
+                   "session is " + std::string(ToString(session->state)) + ", not open");
+  }
   wake_.notify_all();
   MD_LOG(kInfo, "session " << session_id << " committed: job " << *job);
-  return Json{{"session_id", session_id}, {"job_id", *job}, {"state", "committing"}};
+  return Json{
+      {"session_id", session_id}, {"job_id", *job}, {"state", ToString(SessionState::kCommitting)}};
 }
 
 Json MapService::GetSession(int64_t session_id) {
-  const auto s = storage_->GetSession(session_id);
+  const auto s = storage_->sessions().Get(session_id);
   if (!s) throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " does not exist");
   Json j{{"session_id", s->id},
          {"vehicle_id", s->vehicle_id},
          {"camera", Json::parse(s->camera_json)},
          {"depth_scale", s->depth_scale},
-         {"state", s->state},
+         {"state", ToString(s->state)},
          {"keyframe_count", s->keyframe_count},
          {"next_seq", s->keyframe_count},
          {"created_at", IsoTime(s->created_ms)}};
   if (s->committed_ms) j["committed_at"] = IsoTime(*s->committed_ms);
   if (s->job_id) {
     j["job_id"] = *s->job_id;
-    if (auto job = storage_->GetJob(*s->job_id)) {
-      j["job"] = {{"state", job->state}, {"progress", job->progress}, {"message", job->message}};
+    if (auto job = storage_->jobs().Get(*s->job_id)) {
+      j["job"] = {
+          {"state", ToString(job->state)}, {"progress", job->progress}, {"message", job->message}};
     }
   }
   if (s->registration_json) j["registration"] = Json::parse(*s->registration_json);
@@ -210,17 +218,19 @@ Json MapService::GetSession(int64_t session_id) {
 
 Json MapService::Health() {
   Json j{{"status", "ok"}, {"schema_version", KnownSchemaVersion()}};
-  j["prior_version"] = storage_->LatestPriorVersion().value_or(0);
-  for (const auto& [state, n] : storage_->CountJobsByState()) j["jobs"][state] = n;
+  j["prior_version"] = storage_->priors().LatestVersion().value_or(0);
+  for (const auto& [state, n] : storage_->jobs().CountByState()) {
+    j["jobs"][std::string(ToString(state))] = n;
+  }
   return j;
 }
 
-std::string MapService::RenderMetrics() { return metrics_.Render(storage_->CountJobsByState()); }
+std::string MapService::RenderMetrics() { return metrics_.Render(storage_->jobs().CountByState()); }
 
 // ---------------------------------------------------------------- job worker
 
 void MapService::StartJobWorker() {
-  const int requeued = storage_->RequeueInterruptedJobs();
+  const int requeued = storage_->jobs().RequeueInterrupted();
   if (requeued > 0) MD_LOG(kWarn, requeued << " job(s) interrupted by a previous stop will resume");
   stopping_ = false;
   worker_ = std::thread([this] { WorkerLoop(); });
@@ -253,32 +263,45 @@ void MapService::RunQueuedJobsNow() {
 }
 
 bool MapService::RunOneJob() {
-  auto job = storage_->ClaimNextJob(NowMs());
+  auto job = storage_->jobs().ClaimNext(NowMs());
   if (!job) return false;
   const auto t0 = std::chrono::steady_clock::now();
-  MD_LOG(kInfo, "job " << job->id << " (" << job->type << ") started, attempt " << job->attempts);
+  MD_LOG(kInfo, "job " << job->id << " (" << ToString(job->type) << ") started, attempt "
+                       << job->attempts);
   JobContext ctx{*storage_, config_, metrics_, *job, [this] { return stopping_.load(); }};
   std::optional<int64_t> session_id;
-  if (job->type == "commit") session_id = Json::parse(job->params_json).value("session_id", int64_t{0});
+  if (job->type == JobType::kCommit) {
+    session_id = Json::parse(job->params_json).value("session_id", int64_t{0});
+  }
   try {
     Json result;
-    if (job->type == "commit") result = RunCommitJob(ctx);
-    else if (job->type == "refresh") result = RunRefreshJob(ctx);
-    else if (job->type == "reclassify") result = RunReclassifyJob(ctx);
-    else throw Error(ErrorCode::kInternal, "unknown job type " + job->type);
-    storage_->FinishJob(job->id, "succeeded", "done", result.dump(), NowMs());
+    switch (job->type) {
+      case JobType::kCommit:
+        result = RunCommitJob(ctx);
+        break;
+      case JobType::kRefresh:
+        result = RunRefreshJob(ctx);
+        break;
+      case JobType::kReclassify:
+        result = RunReclassifyJob(ctx);
+        break;
+    }
+    storage_->jobs().Finish(job->id, JobState::kSucceeded, "done", result.dump(), NowMs());
     MD_LOG(kInfo, "job " << job->id << " succeeded: " << result.dump());
   } catch (const JobInterrupted& e) {
     if (!e.cancelled) {
       MD_LOG(kInfo, "job " << job->id << " paused by shutdown; it resumes at the next start");
       return false;
     }
-    storage_->FinishJob(job->id, "cancelled", "cancelled while running (finished tiles kept)", std::nullopt, NowMs());
-    if (session_id) storage_->FinishSession(*session_id, "failed", std::nullopt, NowMs());
+    storage_->jobs().Finish(job->id, JobState::kCancelled,
+                            "cancelled while running (finished tiles kept)", std::nullopt, NowMs());
+    if (session_id)
+      storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
     MD_LOG(kInfo, "job " << job->id << " cancelled");
   } catch (const std::exception& e) {
-    storage_->FinishJob(job->id, "failed", e.what(), std::nullopt, NowMs());
-    if (session_id) storage_->FinishSession(*session_id, "failed", std::nullopt, NowMs());
+    storage_->jobs().Finish(job->id, JobState::kFailed, e.what(), std::nullopt, NowMs());
+    if (session_id)
+      storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
     MD_LOG(kError, "job " << job->id << " failed: " << e.what());
   }
   metrics_.jobs_finished += 1;

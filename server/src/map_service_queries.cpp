@@ -108,10 +108,14 @@ void CheckPage(int64_t page, int64_t page_size) {
 }
 
 Json JobToJson(const JobRecord& j) {
-  Json out{{"job_id", j.id},          {"type", j.type},
-           {"state", j.state},        {"progress", j.progress},
-           {"message", j.message},    {"params", Json::parse(j.params_json)},
-           {"attempts", j.attempts},  {"cancel_requested", j.cancel_requested},
+  Json out{{"job_id", j.id},
+           {"type", ToString(j.type)},
+           {"state", ToString(j.state)},
+           {"progress", j.progress},
+           {"message", j.message},
+           {"params", Json::parse(j.params_json)},
+           {"attempts", j.attempts},
+           {"cancel_requested", j.cancel_requested},
            {"created_at", IsoTime(j.created_ms)}};
   if (j.started_ms) out["started_at"] = IsoTime(*j.started_ms);
   if (j.finished_ms) out["finished_at"] = IsoTime(*j.finished_ms);
@@ -122,7 +126,7 @@ Json JobToJson(const JobRecord& j) {
 }  // namespace
 
 int64_t MapService::RequirePriorVersion() {
-  auto v = storage_->LatestPriorVersion();
+  auto v = storage_->priors().LatestVersion();
   if (!v) throw ApiError(ApiCode::kNoPrior, "no prior map has been imported yet");
   return *v;
 }
@@ -155,9 +159,9 @@ Json MapService::ImportPriorFile(const std::string& path, const std::string& not
   }
   PriorVersionRecord meta;
   meta.created_ms = NowMs();
-  meta.source = "import";
+  meta.source = PriorSource::kImport;
   meta.note = note;
-  const int64_t version = storage_->CreatePriorVersion(meta, tiles, /*replace_all=*/true);
+  const int64_t version = storage_->priors().CreateVersion(meta, tiles, /*replace_all=*/true);
   MD_LOG(kInfo, "prior version " << version << " imported: " << cloud.size() << " points in "
                                  << tiles.size() << " tiles (" << dropped << " non-finite dropped)");
   return Json{{"prior_version", version}, {"points", cloud.size()}, {"tiles", tiles.size()},
@@ -182,8 +186,8 @@ Json MapService::ListPriorTilesNear(double x, double y, double radius_m, std::op
   if (v < 1 || v > latest) throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
   const TileGrid grid(config_.storage.tile_size_m);
   Json tiles = Json::array();
-  for (const PriorTileRecord& t :
-       storage_->ListPriorTiles(TileRange(grid, x - radius_m, y - radius_m, x + radius_m, y + radius_m), v)) {
+  for (const PriorTileRecord& t : storage_->priors().ListTiles(
+           TileRange(grid, x - radius_m, y - radius_m, x + radius_m, y + radius_m), v)) {
     const AxisAlignedBox b = grid.Bounds(t.tile);
     tiles.push_back({{"tile", t.tile.ToString()},
                      {"points", t.point_count},
@@ -200,7 +204,7 @@ FilePayload MapService::GetPriorTile(const std::string& tile_text, std::optional
   const int64_t latest = RequirePriorVersion();
   const int64_t v = version.value_or(latest);
   if (v < 1 || v > latest) throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
-  auto record = storage_->GetPriorTile(tile, v);
+  auto record = storage_->priors().GetTile(tile, v);
   if (!record) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no prior points at version " + std::to_string(v));
   FilePayload p = CloudPayload(DecodePoints(record->points), format, WriteCloud);
   p.prior_version = v;
@@ -209,8 +213,11 @@ FilePayload MapService::GetPriorTile(const std::string& tile_text, std::optional
 
 Json MapService::ListPriorVersions() {
   Json out = Json::array();
-  for (const auto& v : storage_->ListPriorVersions()) {
-    Json j{{"version", v.version}, {"created_at", IsoTime(v.created_ms)}, {"source", v.source}, {"note", v.note}};
+  for (const auto& v : storage_->priors().ListVersions()) {
+    Json j{{"version", v.version},
+           {"created_at", IsoTime(v.created_ms)},
+           {"source", ToString(v.source)},
+           {"note", v.note}};
     if (v.parent) j["parent"] = *v.parent;
     if (v.job_id) j["job_id"] = *v.job_id;
     out.push_back(j);
@@ -231,19 +238,21 @@ Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence
   int64_t total = 0;
   std::vector<TileChangesRecord> listed;
   if (min_support == 0) {
-    listed = storage_->ListChangedTiles(range, min_confidence, page_size, (page - 1) * page_size, &total);
+    listed = storage_->tiles().ListChanged(range, min_confidence, page_size, (page - 1) * page_size,
+                                           &total);
   } else {
     // Per point: a tile is listed if one of its changes passes both thresholds, with the
     // counts of those that pass. Candidates are the tiles whose best confidence passes.
     constexpr int64_t kMaxCandidates = 10000;
     int64_t candidates = 0;
-    const auto all = storage_->ListChangedTiles(range, min_confidence, kMaxCandidates + 1, 0, &candidates);
+    const auto all =
+        storage_->tiles().ListChanged(range, min_confidence, kMaxCandidates + 1, 0, &candidates);
     if (candidates > kMaxCandidates) {
       throw ApiError(ApiCode::kInvalidArgument, "min_support filtering covers at most " +
                                                     std::to_string(kMaxCandidates) + " changed tiles; use a smaller bbox");
     }
     for (const TileChangesRecord& summary : all) {
-      auto full = storage_->GetTileChanges(summary.tile);
+      auto full = storage_->tiles().GetChanges(summary.tile);
       if (!full) continue;
       TileChangesRecord r = *full;
       r.new_count = r.removed_count = 0;
@@ -270,8 +279,11 @@ Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence
                      {"updated_at", IsoTime(c.updated_ms)},
                      {"params", Json::parse(c.params_json)}});
   }
-  return Json{{"prior_version", storage_->LatestPriorVersion().value_or(0)},
-              {"page", page}, {"page_size", page_size}, {"total", total}, {"tiles", tiles}};
+  return Json{{"prior_version", storage_->priors().LatestVersion().value_or(0)},
+              {"page", page},
+              {"page_size", page_size},
+              {"total", total},
+              {"tiles", tiles}};
 }
 
 FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::string& format,
@@ -284,7 +296,7 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
   if (format != "json" && format != "pcd" && format != "ply") throw ApiError(ApiCode::kInvalidArgument, "format must be json, pcd or ply");
   if (!(min_confidence >= 0 && min_confidence <= 1)) throw ApiError(ApiCode::kInvalidArgument, "min_confidence must be in [0, 1]");
   if (min_support < 0) throw ApiError(ApiCode::kInvalidArgument, "min_support must be >= 0");
-  auto record = storage_->GetTileChanges(tile);
+  auto record = storage_->tiles().GetChanges(tile);
   if (!record) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no classification");
   const std::vector<ChangePoint> changes = DecodeChanges(record->changes);
   auto keep = [&](const ChangePoint& c) {
@@ -325,7 +337,7 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
 
 FilePayload MapService::GetObservedTile(const std::string& tile_text) {
   const TileId tile = ParseTile(tile_text);
-  auto state = storage_->GetTileState(tile);
+  auto state = storage_->tiles().GetState(tile);
   if (!state || state->sessions.empty()) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no observations");
   ObservedCache cache(*storage_);
   const ObservedArea& merged = cache.Merged(state->sessions, config_.pipeline.octree_resolution_m);
@@ -335,7 +347,7 @@ FilePayload MapService::GetObservedTile(const std::string& tile_text) {
   FilePayload p;
   p.bytes.assign(bt.begin(), bt.end());
   p.content_type = "application/octet-stream";
-  p.prior_version = storage_->LatestPriorVersion().value_or(0);
+  p.prior_version = storage_->priors().LatestVersion().value_or(0);
   return p;
 }
 
@@ -343,7 +355,9 @@ FilePayload MapService::GetObservedTile(const std::string& tile_text) {
 
 Json MapService::CreateJob(const Json& body) {
   RejectUnknownFields(body, {"type", "tiles", "bbox", "min_confidence", "min_support", "params"}, "body");
-  const std::string type = StringField(body, "type");
+  const std::string type_text = StringField(body, "type");
+  const std::optional<JobType> type =
+      ParseEnum<JobType>(type_text);  // commit: POST .../commit only
   Json params = Json::object();
   if (body.contains("tiles") && body.contains("bbox")) throw ApiError(ApiCode::kInvalidArgument, "give tiles or bbox, not both");
   if (body.contains("tiles")) {
@@ -366,7 +380,7 @@ Json MapService::CreateJob(const Json& body) {
     ParseBbox(text);
     params["bbox"] = b;
   }
-  if (type == "refresh") {
+  if (type == JobType::kRefresh) {
     if (!params.contains("tiles") && !params.contains("bbox")) throw ApiError(ApiCode::kInvalidArgument, "refresh needs 'tiles' or 'bbox'");
     if (body.contains("params")) throw ApiError(ApiCode::kInvalidArgument, "refresh takes no 'params'");
     params["min_confidence"] = body.contains("min_confidence") ? NumberField(body, "min_confidence") : 0.5;
@@ -376,7 +390,7 @@ Json MapService::CreateJob(const Json& body) {
     }
     if (params["min_support"].get<int64_t>() < 0) throw ApiError(ApiCode::kInvalidArgument, "field 'min_support': must be >= 0");
     RequirePriorVersion();
-  } else if (type == "reclassify") {
+  } else if (type == JobType::kReclassify) {
     if (body.contains("min_confidence") || body.contains("min_support")) {
       throw ApiError(ApiCode::kInvalidArgument, "reclassify takes 'params', not min_confidence/min_support");
     }
@@ -386,33 +400,36 @@ Json MapService::CreateJob(const Json& body) {
   } else {
     throw ApiError(ApiCode::kInvalidArgument, "field 'type': must be refresh or reclassify");
   }
-  const int64_t id = storage_->CreateJob(type, params.dump(), NowMs());
+  const int64_t id = storage_->jobs().Create(*type, params.dump(), NowMs());
   wake_.notify_all();
-  MD_LOG(kInfo, "job " << id << " (" << type << ") queued: " << params.dump());
+  MD_LOG(kInfo, "job " << id << " (" << type_text << ") queued: " << params.dump());
   return GetJob(id);
 }
 
 Json MapService::ListJobs(int64_t page, int64_t page_size) {
   CheckPage(page, page_size);
   Json jobs = Json::array();
-  for (const auto& j : storage_->ListJobs(page_size, (page - 1) * page_size)) jobs.push_back(JobToJson(j));
+  for (const auto& j : storage_->jobs().List(page_size, (page - 1) * page_size))
+    jobs.push_back(JobToJson(j));
   return Json{{"page", page}, {"page_size", page_size}, {"jobs", jobs}};
 }
 
 Json MapService::GetJob(int64_t job_id) {
-  auto j = storage_->GetJob(job_id);
+  auto j = storage_->jobs().Get(job_id);
   if (!j) throw ApiError(ApiCode::kNotFound, "job " + std::to_string(job_id) + " does not exist");
   return JobToJson(*j);
 }
 
 Json MapService::CancelJob(int64_t job_id) {
-  const auto before = storage_->GetJob(job_id);
+  const auto before = storage_->jobs().Get(job_id);
   if (!before) throw ApiError(ApiCode::kNotFound, "job " + std::to_string(job_id) + " does not exist");
-  if (before->state != "queued" && before->state != "running") {
-    throw ApiError(ApiCode::kJobNotCancellable, "job is " + before->state + "; only queued or running jobs can be cancelled");
+  if (before->state != JobState::kQueued && before->state != JobState::kRunning) {
+    throw ApiError(ApiCode::kJobNotCancellable,
+                   "job is " + std::string(ToString(before->state)) +
+                       "; only queued or running jobs can be cancelled");
   }
   // The state may have moved on since the read; RequestCancel decides atomically.
-  storage_->RequestCancel(job_id, NowMs());
+  storage_->jobs().RequestCancel(job_id, NowMs());
   return GetJob(job_id);
 }
 

@@ -11,7 +11,7 @@ void Metrics::CountRequest(const std::string& route, int status, double seconds)
   s.seconds += seconds;
 }
 
-std::string Metrics::Render(const std::vector<std::pair<std::string, int64_t>>& jobs_by_state) const {
+std::string Metrics::Render(const std::vector<std::pair<JobState, int64_t>>& jobs_by_state) const {
   std::ostringstream os;
   os << "# HELP mapdelta_http_requests_total HTTP requests by route pattern and status.\n"
      << "# TYPE mapdelta_http_requests_total counter\n";
@@ -48,12 +48,12 @@ std::string Metrics::Render(const std::vector<std::pair<std::string, int64_t>>& 
      << "mapdelta_job_tiles_applied_total " << job_tiles_applied.load() << "\n"
      << "# HELP mapdelta_jobs Jobs in the database by state.\n"
      << "# TYPE mapdelta_jobs gauge\n";
-  for (const char* state : {"queued", "running", "succeeded", "failed", "cancelled"}) {
+  for (const auto& [state, name] : EnumNames<JobState>::kValues) {
     int64_t n = 0;
     for (const auto& [s, count] : jobs_by_state) {
       if (s == state) n = count;
     }
-    os << "mapdelta_jobs{state=\"" << state << "\"} " << n << "\n";
+    os << "mapdelta_jobs{state=\"" << name << "\"} " << n << "\n";
   }
   return os.str();
 }

@@ -1,5 +1,6 @@
 #pragma once
-// The numbered SQL files of migrations/, embedded at build time (CMake generates the .cpp).
+// The numbered SQL files of migrations/, embedded at build time (CMake generates the .cpp with
+// embed_migrations.cmake). Which of them a database still needs is schema_migrator.hpp's job.
 #include <string_view>
 #include <vector>
 

@@ -69,7 +69,11 @@ Stmt& Stmt::Bind(int index, std::string_view text) {
   return *this;
 }
 Stmt& Stmt::Bind(int index, const std::vector<uint8_t>& blob) {
-  const int rc = sqlite3_bind_blob64(stmt_, index, blob.data(), blob.size(), SQLITE_TRANSIENT);
+  // An empty vector's data() may be null, which sqlite3_bind_blob64 binds as NULL (and a NOT
+  // NULL column then refuses it): bind an empty blob explicitly.
+  const int rc =
+      blob.empty() ? sqlite3_bind_zeroblob(stmt_, index, 0)
+                   : sqlite3_bind_blob64(stmt_, index, blob.data(), blob.size(), SQLITE_TRANSIENT);
   if (rc != SQLITE_OK) db_.Fail(rc, sql_);
   return *this;
 }

@@ -22,7 +22,7 @@ const ObservedArea* ObservedCache::SessionLocked(int64_t session_id) {
   auto it = sessions_.find(session_id);
   if (it == sessions_.end()) {
     std::unique_ptr<ObservedArea> area;
-    if (auto blob = storage_.GetSessionObserved(session_id)) {
+    if (auto blob = storage_.sessions().GetObserved(session_id)) {
       area = std::make_unique<ObservedArea>(
           ObservedArea::DeserializeBinary(std::string(blob->begin(), blob->end())));
     }
@@ -68,12 +68,13 @@ Neighbourhood LoadNeighbourhood(Storage& storage, const TileGrid& grid, const Ti
   for (int dx = -1; dx <= 1; ++dx) {
     for (int dy = -1; dy <= 1; ++dy) {
       const TileId t(tile.ix() + dx, tile.iy() + dy);
-      if (auto prior = storage.GetPriorTile(t, prior_version)) {
+      if (auto prior = storage.priors().GetTile(t, prior_version)) {
         for (const Point& p : DecodePoints(prior->points)) {
           if (box.Contains(p)) n.prior.push_back(p);
         }
       }
-      if (auto state = storage.GetTileState(t)) n.aggregates.push_back(DecodeAggregate(state->aggregate));
+      if (auto state = storage.tiles().GetState(t))
+        n.aggregates.push_back(DecodeAggregate(state->aggregate));
     }
   }
   for (const TileAggregate& agg : n.aggregates) {
@@ -122,7 +123,7 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
   out.record.params_json = "{\"th_ch_m\":" + std::to_string(params.th_ch_m) +
                            ",\"min_voxel_support\":" + std::to_string(params.min_voxel_support) + "}";
   std::set<int64_t> tile_sessions;
-  if (auto state = storage.GetTileState(tile)) tile_sessions = state->sessions;
+  if (auto state = storage.tiles().GetState(tile)) tile_sessions = state->sessions;
 
   if (!tile_sessions.empty()) {
     const Neighbourhood n = LoadNeighbourhood(storage, grid, tile, prior_version, params);

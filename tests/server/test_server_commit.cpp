@@ -113,7 +113,7 @@ Json* CommitPaths::simple_job_ = nullptr;
 int64_t CommitPaths::session_ = 0;
 
 ObservedArea SessionOctree(MapService& service, int64_t session) {
-  const auto blob = service.storage().GetSessionObserved(session);
+  const auto blob = service.storage().sessions().GetObserved(session);
   EXPECT_TRUE(blob.has_value());
   return ObservedArea::DeserializeBinary(blob ? std::string(blob->begin(), blob->end()) : std::string());
 }
@@ -143,18 +143,21 @@ TEST_F(CommitPaths, FastPathEqualsSimplePath) {
   EXPECT_GT(f["new_points"].get<int>(), 0);
   // A committed session's upload-time clouds are dropped (derived data, as large as the PNGs).
   size_t clouds = 0;
-  fast_->storage().ForEachKeyframe(session_, 0, 1000, false, [&](const KeyframeRecord& k) { clouds += !k.cloud.empty(); });
+  fast_->storage().sessions().ForEachKeyframe(
+      session_, 0, 1000, false, [&](const KeyframeRecord& k) { clouds += !k.cloud.empty(); });
   EXPECT_EQ(clouds, 0u);
   EXPECT_GT(f["removed_points"].get<int>(), 0);
 
   // Aggregates and changes, tile by tile, byte for byte (changes decoded for a readable diff).
-  const auto tiles = fast_->storage().ListAggregatedTiles(std::nullopt);
-  ASSERT_EQ(tiles, simple_->storage().ListAggregatedTiles(std::nullopt));
+  const auto tiles = fast_->storage().tiles().ListAggregated(std::nullopt);
+  ASSERT_EQ(tiles, simple_->storage().tiles().ListAggregated(std::nullopt));
   ASSERT_GE(tiles.size(), 3u);
   for (const TileId& t : tiles) {
     SCOPED_TRACE(t.ToString());
-    EXPECT_EQ(fast_->storage().GetTileState(t)->aggregate, simple_->storage().GetTileState(t)->aggregate);
-    const auto fc = fast_->storage().GetTileChanges(t), sc = simple_->storage().GetTileChanges(t);
+    EXPECT_EQ(fast_->storage().tiles().GetState(t)->aggregate,
+              simple_->storage().tiles().GetState(t)->aggregate);
+    const auto fc = fast_->storage().tiles().GetChanges(t),
+               sc = simple_->storage().tiles().GetChanges(t);
     ASSERT_TRUE(fc && sc);
     const auto a = DecodeChanges(fc->changes), b = DecodeChanges(sc->changes);
     ASSERT_EQ(a.size(), b.size());
@@ -182,7 +185,7 @@ TEST_F(CommitPaths, FastPathEqualsSimplePath) {
 
 TEST_F(CommitPaths, ObservedTileDownloadHoldsThatTileOnly) {
   const ObservedArea whole = SessionOctree(*fast_, session_);
-  const auto tiles = fast_->storage().ListAggregatedTiles(std::nullopt);
+  const auto tiles = fast_->storage().tiles().ListAggregated(std::nullopt);
   ASSERT_GE(tiles.size(), 3u);
   for (const TileId& id : tiles) {
     const std::string tile = id.ToString();
@@ -225,13 +228,13 @@ TEST_F(CommitPaths, RefreshResumedAfterItsVersionFinishesWithoutASecondVersion) 
   const int64_t id = job["job_id"];
   const Json done = fast_->GetJob(id);
   ASSERT_EQ(done["state"], "succeeded") << done.dump(2);
-  ASSERT_EQ(fast_->storage().ListPriorVersions().size(), 2u);
+  ASSERT_EQ(fast_->storage().priors().ListVersions().size(), 2u);
   // Classifications after the refresh: the neighbours of refreshed tiles against version 2
   // (step 3), tiles farther away keep their version-1 result (their prior did not change).
   std::map<std::string, std::pair<int64_t, Bytes>> after;
   size_t redone = 0;
-  for (const TileId& t : fast_->storage().ListAggregatedTiles(std::nullopt)) {
-    const auto c = fast_->storage().GetTileChanges(t);
+  for (const TileId& t : fast_->storage().tiles().ListAggregated(std::nullopt)) {
+    const auto c = fast_->storage().tiles().GetChanges(t);
     ASSERT_TRUE(c);
     after[t.ToString()] = {c->prior_version, c->changes};
     redone += c->prior_version == 2;
@@ -243,15 +246,15 @@ TEST_F(CommitPaths, RefreshResumedAfterItsVersionFinishesWithoutASecondVersion) 
     db.Exec("UPDATE jobs SET state = 'running', finished_ms = NULL WHERE id = " + std::to_string(id));
     db.Exec("UPDATE tile_changes SET prior_version = 1, changes = x'' WHERE prior_version = 2");
   }
-  EXPECT_EQ(fast_->storage().RequeueInterruptedJobs(), 1);
+  EXPECT_EQ(fast_->storage().jobs().RequeueInterrupted(), 1);
   fast_->RunQueuedJobsNow();
   const Json resumed = fast_->GetJob(id);
   ASSERT_EQ(resumed["state"], "succeeded") << resumed.dump(2);
   EXPECT_EQ(resumed["result"]["resumed"], true);
   EXPECT_EQ(resumed["result"]["prior_version"], 2);
-  EXPECT_EQ(fast_->storage().ListPriorVersions().size(), 2u);
+  EXPECT_EQ(fast_->storage().priors().ListVersions().size(), 2u);
   for (const auto& [tile, expected] : after) {
-    const auto c = fast_->storage().GetTileChanges(*TileId::FromString(tile));
+    const auto c = fast_->storage().tiles().GetChanges(*TileId::FromString(tile));
     ASSERT_TRUE(c);
     EXPECT_EQ(c->prior_version, expected.first) << tile;
     EXPECT_EQ(c->changes, expected.second) << tile;

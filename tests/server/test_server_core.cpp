@@ -11,6 +11,8 @@
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/server/config.hpp"
 #include "mapdelta/server/map_service.hpp"
+#include "mapdelta/server/memory_storage.hpp"
+#include "schema_migrator.hpp"
 #include "sqlite_db.hpp"
 
 namespace mapdelta::server {
@@ -101,12 +103,48 @@ TEST(Storage, RefusesASchemaNewerThanItKnows) {
   fs::remove_all(d);
 }
 
+// A backend's side of the migrator, recording what it was asked to do.
+class RecordingSchemaTarget final : public SchemaTarget {
+ public:
+  explicit RecordingSchemaTarget(int64_t version) : version_(version) {}
+  int64_t AppliedVersion() override { return version_; }
+  void Apply(const Migration& m) override {
+    applied.push_back(m.version);
+    version_ = m.version;
+  }
+  std::vector<int> applied;
+
+ private:
+  int64_t version_;
+};
+
+TEST(SchemaMigrator, AppliesOnlyNewerMigrationsInOrderAndRefusesANewerDatabase) {
+  const std::vector<Migration> migrations = {
+      {1, "001_a", "A"}, {2, "002_b", "B"}, {3, "003_c", "C"}};
+  RecordingSchemaTarget fresh(0), partial(2), current(3), future(4);
+  EXPECT_EQ(MigrateSchema(fresh, migrations), 3);
+  EXPECT_EQ(fresh.applied, (std::vector<int>{1, 2, 3}));
+  EXPECT_EQ(MigrateSchema(partial, migrations), 1);
+  EXPECT_EQ(partial.applied, (std::vector<int>{3}));
+  EXPECT_EQ(MigrateSchema(current, migrations), 0);
+  try {
+    MigrateSchema(future, migrations);
+    FAIL() << "newer schema accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kUnsupported);
+    EXPECT_NE(std::string(e.what()).find("version 4 is newer than this server knows (3)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_TRUE(future.applied.empty());
+  EXPECT_EQ(KnownSchemaVersion(), NewestVersion(EmbeddedMigrations()));
+  EXPECT_GE(KnownSchemaVersion(), 2);
+}
+
 TEST(MapService, CancelAQueuedCommitReopensTheSessionAndFinishedJobsRefuse) {
   log::SetLevel(log::Level::kWarn);
-  const fs::path d = TempDir("cancel");
   ServerConfig config;
-  config.storage.database = (d / "db.sqlite").string();
-  MapService service(config, OpenSqliteStorage(config.storage.database));
+  MapService service(config, OpenMemoryStorage());
   const Json camera{{"width", 8}, {"height", 6}, {"fx", 4}, {"fy", 4}, {"cx", 4}, {"cy", 3}};
   const int64_t s = service.CreateSession({{"vehicle_id", "v"}, {"camera", camera}})["session_id"];
   EXPECT_THROW(service.CommitSession(s), ApiError);  // no keyframes yet
@@ -133,7 +171,6 @@ TEST(MapService, CancelAQueuedCommitReopensTheSessionAndFinishedJobsRefuse) {
   EXPECT_EQ(j["state"], "succeeded") << j.dump();
   EXPECT_EQ(j["result"]["registration"]["status"], "skipped");
   EXPECT_EQ(service.GetSession(s)["state"], "committed");
-  fs::remove_all(d);
 }
 
 }  // namespace

@@ -90,7 +90,7 @@ TEST_F(ServerHttpTest, AuthRolesAnd401Vs403) {
   // Revoked tokens are rejected from then on.
   const CreatedToken t = CreateToken(service_->storage(), "tmp", Role::kReader, NowMs());
   EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer " + t.secret))).first, 200);
-  ASSERT_TRUE(service_->storage().RevokeToken(t.record.id, NowMs()));
+  ASSERT_TRUE(service_->storage().tokens().Revoke(t.record.id, NowMs()));
   EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer " + t.secret))).first, 401);
   EXPECT_EQ(Call(client_->Get("/nope", H(admin_))).first, 404);
   // The OpenAPI document is served and names every route the server has.
@@ -436,7 +436,7 @@ TEST_F(ServerHttpTest, MalformedInputGets4xxAndTheServerKeepsServing) {
   EXPECT_EQ(Call(client_->Get("/v1/sessions/" + std::to_string(s), H(vehicle_))).second["keyframe_count"], 0);
   EXPECT_EQ(Call(PutKeyframe(s, 0, MetaJson(1, T), png)).first, 201);
   EXPECT_EQ(Call(client_->Get("/health")).first, 200);
-  EXPECT_EQ(service_->storage().ListPriorVersions().size(), 0u);
+  EXPECT_EQ(service_->storage().priors().ListVersions().size(), 0u);
 }
 
 }  // namespace

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "mapdelta/server/states.hpp"
+
 namespace mapdelta::server {
 
 class Metrics {
@@ -19,7 +21,7 @@ class Metrics {
   std::atomic<int64_t> job_tiles_applied{0};
   std::atomic<int64_t> job_seconds_ms{0};
   // Renders everything; extra gauges (job queue by state) are passed in by the caller.
-  std::string Render(const std::vector<std::pair<std::string, int64_t>>& jobs_by_state) const;
+  std::string Render(const std::vector<std::pair<JobState, int64_t>>& jobs_by_state) const;
 
  private:
   struct RouteStats {
