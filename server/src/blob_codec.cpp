@@ -2,7 +2,9 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cstring>
+#include <string_view>
 
 #include "mapdelta/common/error.hpp"
 
@@ -12,7 +14,7 @@ namespace {
 constexpr char kMagic[4] = {'M', 'D', 'B', '1'};
 constexpr uint16_t kFormatVersion = 1;
 constexpr uint64_t kMaxDeflateRatio = 1032;
-enum Kind : uint8_t { kPoints = 1, kAggregate = 2, kChanges = 3 };
+enum Kind : uint8_t { kPoints = 1, kAggregate = 2, kChanges = 3, kObserved = 4 };
 
 class Writer {
  public:
@@ -199,6 +201,21 @@ std::vector<ChangePoint> DecodeChanges(const Bytes& blob) {
   }
   if (!r.done()) throw Error(ErrorCode::kParse, "changes blob has trailing bytes");
   return out;
+}
+
+Bytes EncodeObserved(const std::string& octree_binary) {
+  return Seal(kObserved, Bytes(octree_binary.begin(), octree_binary.end()));
+}
+
+std::string DecodeObserved(const Bytes& blob) {
+  // OctoMap's writeBinary starts every stream with this line (octomap/AbstractOcTree.cpp).
+  static constexpr std::string_view kLegacyOctomapHeader = "# Octomap OcTree binary file";
+  if (blob.size() >= kLegacyOctomapHeader.size() &&
+      std::equal(kLegacyOctomapHeader.begin(), kLegacyOctomapHeader.end(), blob.begin())) {
+    return std::string(blob.begin(), blob.end());
+  }
+  const Bytes raw = Open(kObserved, blob);
+  return std::string(raw.begin(), raw.end());
 }
 
 }  // namespace mapdelta::server

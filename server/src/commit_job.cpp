@@ -125,9 +125,7 @@ Json RunCommitJob(JobContext& ctx) {
   SessionObserved session_observed = BuildSessionObserved(ctx, *session, camera, reg.T_correction, 0.2, 0.8);
   const ObservedArea& observed = session_observed.area;
   const std::vector<Eigen::Vector3d>& camera_centres = session_observed.camera_centres;
-  const std::string observed_bytes = observed.SerializeBinary();
-  ctx.storage.sessions().PutObserved(session_id,
-                                     Bytes(observed_bytes.begin(), observed_bytes.end()));
+  ctx.storage.sessions().PutObserved(session_id, EncodeObserved(observed.SerializeBinary()));
   const auto t3 = std::chrono::steady_clock::now();
 
   // 4. Touched tiles: where the session has points, or observed some prior point.

@@ -23,8 +23,7 @@ const ObservedArea* ObservedCache::SessionLocked(int64_t session_id) {
   if (it == sessions_.end()) {
     std::unique_ptr<ObservedArea> area;
     if (auto blob = storage_.sessions().GetObserved(session_id)) {
-      area = std::make_unique<ObservedArea>(
-          ObservedArea::DeserializeBinary(std::string(blob->begin(), blob->end())));
+      area = std::make_unique<ObservedArea>(ObservedArea::DeserializeBinary(DecodeObserved(*blob)));
     }
     it = sessions_.emplace(session_id, std::move(area)).first;
   }

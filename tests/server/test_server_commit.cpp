@@ -115,7 +115,7 @@ int64_t CommitPaths::session_ = 0;
 ObservedArea SessionOctree(MapService& service, int64_t session) {
   const auto blob = service.storage().sessions().GetObserved(session);
   EXPECT_TRUE(blob.has_value());
-  return ObservedArea::DeserializeBinary(blob ? std::string(blob->begin(), blob->end()) : std::string());
+  return ObservedArea::DeserializeBinary(blob ? DecodeObserved(*blob) : std::string());
 }
 
 // Voxel centres (0.8 m octree, boundaries at multiples of 0.8) over the scene, 0.4 m apart so

@@ -9,6 +9,7 @@
 #include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
+#include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/server/config.hpp"
 #include "mapdelta/server/map_service.hpp"
 #include "mapdelta/server/memory_storage.hpp"
@@ -59,6 +60,58 @@ TEST(BlobCodec, RoundTripsAndRejectsCorruption) {
   Bytes future = blob;
   future[5] = 99;  // format version
   EXPECT_THROW(DecodePoints(future), Error);
+}
+
+// A small real octree: one keyframe of a wall 5 m ahead of an 8x6 camera.
+std::string SmallOctreeBinary() {
+  PinholeCamera camera;
+  camera.width = 8;
+  camera.height = 6;
+  camera.fx = camera.fy = 4;
+  camera.cx = 4;
+  camera.cy = 3;
+  DepthImage depth(8, 6);
+  for (int v = 0; v < 6; ++v) {
+    for (int u = 0; u < 8; ++u) depth.at(u, v) = 5.f;
+  }
+  ObservedArea area(0.8);
+  area.InsertKeyframe(camera, SE3::Identity(), depth, ObservedAreaParams{});
+  return area.SerializeBinary();
+}
+
+TEST(BlobCodec, SessionOctreesRoundTripAndCorruptionIsRefused) {
+  const std::string octree = SmallOctreeBinary();
+  ASSERT_GT(ObservedArea::DeserializeBinary(octree).NumKnownLeaves(), 0u);
+  const Bytes blob = EncodeObserved(octree);
+  ASSERT_EQ(std::string(blob.begin(), blob.begin() + 4), "MDB1");
+  EXPECT_EQ(DecodeObserved(blob), octree);
+
+  Bytes flipped = blob;
+  flipped[flipped.size() / 2 + 10] ^= 0x01;  // inside the zlib stream
+  EXPECT_THROW(DecodeObserved(flipped), Error);
+  Bytes crc = blob;
+  crc[4 + 1 + 2 + 8] ^= 0x01;  // the stored CRC-32: the payload decompresses but does not match
+  try {
+    DecodeObserved(crc);
+    FAIL() << "checksum mismatch accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("checksum"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(DecodeObserved(Bytes(blob.begin(), blob.begin() + 12)), Error);
+  EXPECT_THROW(DecodeObserved(EncodePoints({Point(1, 2, 3)})), Error);  // another kind
+  Bytes future = blob;
+  future[5] = 99;  // format version
+  try {
+    DecodeObserved(future);
+    FAIL() << "unknown format version accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kUnsupported);
+  }
+  EXPECT_THROW(DecodeObserved(Bytes{'n', 'o', 't', ' ', 'a', 'n', ' ', 'o', 'c', 't',
+                                    'r', 'e', 'e', 0,   0,   0,   0,   0,   0,   0}),
+               Error);
+  // A database written before octrees went through the codec holds the bare OctoMap stream.
+  EXPECT_EQ(DecodeObserved(Bytes(octree.begin(), octree.end())), octree);
 }
 
 TEST(Config, ReportsEveryProblemAtOnceAndLoadsTheExample) {
