@@ -4,6 +4,7 @@
 # given seconds, one after another at nice 19. Prints per target: executions, coverage (cov:
 # edges, ft: features), corpus size and findings. Exit status 1 if any target found a crash.
 #   bash bench/fuzz.sh [seconds per target, default 60] [target ...]
+# Env: MAPDELTA_FUZZ_TIMEOUT (seconds per input, default 10), MAPDELTA_FUZZ_NO_BUILD=1.
 # Findings land in build-fuzz/findings/<target>/; copy one into tests/fuzz/regressions/<target>/
 # once it is fixed, so that the normal build's replay test keeps it fixed.
 set -euo pipefail
@@ -33,10 +34,13 @@ for t in "${targets[@]}"; do
   seeds=(tests/fuzz/corpus/"$t")
   [ -d tests/fuzz/regressions/"$t" ] && seeds+=(tests/fuzz/regressions/"$t")
   # -rss_limit_mb / -malloc_limit_mb: an input that makes a decoder allocate more than 2 GiB is
-  # a finding (a size taken from a header unchecked), not a reason to swap.
+  # a finding (a size taken from a header unchecked), not a reason to swap. -timeout is wall
+  # time: on a machine loaded far beyond its cores a nice-19 fuzzer can stall for a minute on a
+  # 2 ms input (seen 2026-12-03), so raise MAPDELTA_FUZZ_TIMEOUT there, and replay any timeout
+  # alone before calling it a hang.
   set +e
   nice -n 19 "$build/tests/fuzz/$t" -max_total_time="$seconds" -rss_limit_mb=2048 -malloc_limit_mb=2048 \
-    -timeout=10 -print_final_stats=1 -artifact_prefix="$findings/" "$work" "${seeds[@]}" >"$log" 2>&1
+    -timeout="${MAPDELTA_FUZZ_TIMEOUT:-10}" -print_final_stats=1 -artifact_prefix="$findings/" "$work" "${seeds[@]}" >"$log" 2>&1
   status=$?
   set -e
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)

@@ -119,6 +119,28 @@ def ply():
         header('binary_big_endian', 'property double nx\n').encode() + b''.join(struct.pack('>fffd', *p, 1.0) for p in POINTS))
 
 
+def las():
+    # Public header fields at the offsets of the ASPRS LAS 1.2 / 1.4 specifications (las_io.cpp).
+    def file(minor, point_format, record_length):
+        header_size = 375 if minor == 4 else 227
+        h = bytearray(header_size)
+        h[0:4] = b'LASF'
+        h[24], h[25] = 1, minor
+        struct.pack_into('<HII', h, 94, header_size, header_size, 0)
+        struct.pack_into('<BHI', h, 104, point_format, record_length, len(POINTS))
+        struct.pack_into('<3d3d', h, 131, 0.001, 0.001, 0.001, -4.0, -8.0, 0.0)
+        if minor == 4:
+            struct.pack_into('<Q', h, 247, len(POINTS))
+        points = b''
+        for p in POINTS:
+            xyz = [round((p[0] + 4.0) / 0.001), round((p[1] + 8.0) / 0.001), round(p[2] / 0.001)]
+            points += struct.pack('<3i', *xyz) + bytes(record_length - 12)
+        return bytes(h) + points
+    put('fuzz_las_reader', 'las12_format0.las', file(2, 0, 20))
+    put('fuzz_las_reader', 'las14_format6.las', file(4, 6, 30))
+    put('fuzz_las_reader', 'las12_format3_padded.las', file(2, 3, 40))
+
+
 def copied():
     shutil.copy(os.path.join(DATA, '..', 'web', 'data', 'wall.bt'), os.path.join(HERE, 'corpus', 'fuzz_octree_bt', 'wall.bt'))
     for name in ('cam0', 'imu0', 'depth0'):
@@ -134,5 +156,5 @@ def copied():
 
 if __name__ == '__main__':
     os.makedirs(os.path.join(HERE, 'corpus', 'fuzz_octree_bt'), exist_ok=True)
-    for make in (keyframe_meta, depth_png, api_bodies, blob_codec, pcd, ply, copied):
+    for make in (keyframe_meta, depth_png, api_bodies, blob_codec, pcd, ply, las, copied):
         make()
