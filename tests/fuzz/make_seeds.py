@@ -90,6 +90,9 @@ def blob_codec():
         for ids in (obs, sup):
             raw += struct.pack('<I', len(ids)) + b''.join(struct.pack('<q', s) for s in ids)
     put('fuzz_blob_codec', 'changes.bin', b'\x02' + blob(3, raw))
+    octree = open(os.path.join(DATA, '..', 'web', 'data', 'wall.bt'), 'rb').read()
+    put('fuzz_blob_codec', 'observed.bin', b'\x03' + blob(4, octree))
+    put('fuzz_blob_codec', 'observed_legacy_bare.bin', b'\x03' + octree)
 
 
 def pcd():
