@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "auth.hpp"
+#include "cmd_export_autoware.hpp"
 #include "instance_lock.hpp"
 #include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/error.hpp"
@@ -32,7 +33,8 @@ Usage:
   mapdelta-server token create --config FILE --role vehicle|reader|admin --name NAME
   mapdelta-server token revoke --config FILE --id TOKEN_ID
   mapdelta-server token list   --config FILE
-  mapdelta-server import-prior --config FILE --cloud FILE.pcd|.ply|.las [--note TEXT]
+  mapdelta-server import-prior --config FILE --cloud FILE.pcd|.ply|.las|DIR [--note TEXT]
+  mapdelta-server export-autoware --config FILE --version N --out DIR [--tile-size M]
   mapdelta-server check-config --config FILE
   mapdelta-server --help
 
@@ -42,8 +44,10 @@ serve         Runs the HTTP API (see /v1/openapi.yaml). Prints "listening on HOS
 token create  Prints the new token's id and secret. The secret is shown only once; only
               its SHA-256 is stored.
 token revoke  Revokes a token by id (requests with it get 401 from then on).
-import-prior  Imports a PCD, PLY or LAS cloud as a new prior version (over HTTP:
+import-prior  Imports a PCD, PLY or LAS cloud, or an Autoware grid map folder (tiles +
+              pointcloud_map_metadata.yaml), as a new prior version (over HTTP:
               POST /v1/admin/prior, PCD/PLY).
+export-autoware  Writes a prior version as an Autoware grid map folder.
 check-config  Validates the config (all problems at once) and prints the effective config.
 
 Run 'mapdelta-server COMMAND --help' for a command's options. Exit codes: 0 success,
@@ -206,10 +210,11 @@ int TokenList(const std::vector<std::string>& args) {
 int ImportPrior(const std::vector<std::string>& args) {
   std::string config_path, path, note;
   cli::Parser cli("mapdelta-server import-prior",
-                  "Imports a PCD, PLY or LAS cloud as a new prior version (over HTTP: POST\n"
-                  "/v1/admin/prior, PCD/PLY).");
+                  "Imports a PCD, PLY or LAS cloud, or an Autoware grid map folder (tile PCDs\n"
+                  "listed in its pointcloud_map_metadata.yaml, each point checked against its\n"
+                  "tile's box), as a new prior version (over HTTP: POST /v1/admin/prior, PCD/PLY).");
   AddConfigOption(cli, &config_path)
-      .Option("cloud", &path, "the prior map, in map coordinates", "FILE.pcd|.ply|.las")
+      .Option("cloud", &path, "the prior map, in map coordinates", "FILE.pcd|.ply|.las|DIR")
       .Option("note", &note, "recorded with the version (default: the file name)", "TEXT")
       .Require({"cloud"})
       .Footer(cli::kExitCodesFooter);
@@ -241,6 +246,7 @@ int Dispatch(const std::string& command, const std::vector<std::string>& args) {
   if (command == "token list") return TokenList(args);
   if (command == "import-prior") return ImportPrior(args);
   if (command == "check-config") return CheckConfig(args);
+  if (command == "export-autoware") return mds::ExportAutowareCommand(args);
   cli::FailUsage("mapdelta-server", "unknown command '" + command + "'");
 }
 

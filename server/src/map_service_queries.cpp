@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "api_json.hpp"
+#include "autoware_map.hpp"
 #include "blob_codec.hpp"
 #include "jobs.hpp"
 #include "mapdelta/common/cloud_io.hpp"
@@ -136,7 +137,8 @@ int64_t MapService::RequirePriorVersion() {
 Json MapService::ImportPriorFile(const std::string& path, const std::string& note) {
   PointCloud cloud;
   try {
-    cloud = ReadCloud(path);
+    // A folder is an Autoware grid map (tiles + pointcloud_map_metadata.yaml).
+    cloud = std::filesystem::is_directory(path) ? ReadAutowareMapFolder(path) : ReadCloud(path);
   } catch (const Error& e) {
     throw ApiError(ApiCode::kInvalidArgument, std::string("prior cloud: ") + e.what());
   }

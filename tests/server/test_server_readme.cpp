@@ -209,6 +209,11 @@ TEST_F(ServerReadme, RunItForRealWalkThroughWorksAsWritten) {
     if (readme_command.find("import-prior") != std::string::npos) {
       EXPECT_EQ(Json::parse(r.out)["prior_version"], 1) << r.out;
     }
+    if (readme_command.find("export-autoware") != std::string::npos) {
+      // The Autoware folder: tile PCDs and their metadata (round trip: test_server_autoware).
+      EXPECT_NE(r.out.find("prior_version: 1\n"), std::string::npos) << r.out;
+      EXPECT_TRUE(fs::exists(dir / "autoware-map/pointcloud_map_metadata.yaml")) << r.out;
+    }
     if (readme_command.rfind("curl", 0) != 0) continue;
     ++curl_lines;
     if (readme_command.find("> new.ply") != std::string::npos) {
