@@ -23,6 +23,7 @@
 #include "auth.hpp"
 #include "box_scene.hpp"
 #include "mapdelta/common/cli.hpp"
+#include "changed_scene.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/server/http_server.hpp"
@@ -49,20 +50,6 @@ double CpuSeconds() {
 double LoadAverage() {
   double load[1] = {0};
   return getloadavg(load, 1) == 1 ? load[0] : -1;
-}
-
-md::testing::BoxScene Street(bool changed) {
-  md::testing::BoxScene s;
-  s.ground.min = Eigen::Vector3f(-60, -20, 0);
-  s.ground.max = Eigen::Vector3f(360, 60, 0);
-  s.ground_z = -0.4;
-  for (int i = 0; i < 10; ++i) {
-    if (changed && i == 3) continue;  // removed
-    const double x = i * 30.0;
-    s.boxes.push_back({{x, 10, -0.4}, {x + 8, 16, 4.6}});
-  }
-  if (changed) s.boxes.push_back({{105, 10, -0.4}, {112, 16, 4.6}});  // added
-  return s;
 }
 
 mds::Json Meta(int64_t t_ns, const md::SE3& T) {
@@ -115,7 +102,7 @@ int main(int argc, char** argv) {
 
   // 1. Render and encode the session (not timed as ingest).
   md::PinholeCamera camera;  // 800x450, fx = fy = 400 (the paper's camera)
-  const md::testing::BoxScene changed = Street(true);
+  const md::testing::BoxScene changed = md::testing::StreetScene(true);
   std::vector<std::string> pngs(keyframes);
   std::vector<md::SE3> poses(keyframes);
   std::fprintf(stderr, "rendering %d keyframes of %dx%d ...\n", keyframes, camera.width, camera.height);
@@ -148,7 +135,7 @@ int main(int argc, char** argv) {
     c.storage.database = dir + "/" + name + ".db";
     auto s = std::make_unique<mds::MapService>(c, mds::OpenSqliteStorage(c.storage.database));
     const std::string prior = dir + "/prior.pcd";
-    if (!std::filesystem::exists(prior)) md::WriteCloud(prior, Street(false).Sample(0.4));
+    if (!std::filesystem::exists(prior)) md::WriteCloud(prior, md::testing::StreetScene(false).Sample(0.4));
     s->ImportPriorFile(prior, "bench");
     return s;
   };

@@ -1,4 +1,6 @@
 // Refresh and reclassify jobs, the shared job context, and classification settings.
+#include <chrono>
+#include <thread>
 #include <unordered_set>
 
 #include "api_json.hpp"
@@ -20,6 +22,18 @@ void JobContext::CheckShutdown() {
 void JobContext::CheckStop() {
   if (shutting_down()) throw JobInterrupted(false);
   if (storage.jobs().IsCancelRequested(job.id)) throw JobInterrupted(true);
+}
+
+void JobContext::WaitForEarlierJobs(std::optional<JobType> of_type) {
+  // Polled: earlier jobs are rare with one worker (never) and short-lived with several.
+  constexpr auto kPoll = std::chrono::milliseconds(100);
+  while (true) {
+    const std::optional<EarlierJob> earlier = storage.jobs().UnfinishedBefore(job.id, NowMs(), of_type);
+    if (!earlier) return;
+    if (earlier->claimable) throw JobYield(earlier->id);
+    CheckShutdown();
+    std::this_thread::sleep_for(kPoll);
+  }
 }
 
 Json ToJson(const ClassifyConfig& c) {
@@ -111,6 +125,7 @@ void ReclassifyAround(JobContext& ctx, const TileGrid& grid, const std::vector<T
 }  // namespace
 
 Json RunRefreshJob(JobContext& ctx) {
+  ctx.WaitForEarlierJobs();  // it reads and rewrites tiles that earlier jobs write
   const Json params = Json::parse(ctx.job.params_json);
   const double min_confidence = params.value("min_confidence", 0.5);
   const int64_t min_support = params.value("min_support", int64_t{1});
@@ -195,6 +210,7 @@ Json RunRefreshJob(JobContext& ctx) {
 }
 
 Json RunReclassifyJob(JobContext& ctx) {
+  ctx.WaitForEarlierJobs();  // its thresholds apply from here on, after the jobs before it
   const Json params = Json::parse(ctx.job.params_json);
   const ClassifyConfig cc = ClassifyConfigFromJson(params.value("params", Json::object()),
                                                    CurrentClassifyConfig(ctx.storage, ctx.config.classify));

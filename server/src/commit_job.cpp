@@ -114,7 +114,8 @@ Json RunCommitJob(JobContext& ctx) {
   PointCloud cloud = session_cloud.cloud;
   const auto t1 = std::chrono::steady_clock::now();
 
-  // 2. Align to the prior.
+  // 2. Align to the prior (the one an earlier refresh job makes, as with a single worker).
+  ctx.WaitForEarlierJobs(JobType::kRefresh);
   const std::optional<int64_t> prior_version = ctx.storage.priors().LatestVersion();
   const Registration reg = AlignToPrior(ctx, grid, cloud, prior_version);
   cloud = Transform(cloud, reg.T_correction);
@@ -148,8 +149,10 @@ Json RunCommitJob(JobContext& ctx) {
       }
     }
   }
-  // Last point at which a cancel request stops the job: from here on it writes.
+  // Last point at which a cancel request stops the job: from here on it writes, after every
+  // earlier job (tiles aggregate sessions in commit order, however many workers run).
   ctx.CheckStop();
+  ctx.WaitForEarlierJobs();
   // All touched tiles in one transaction, so a crash leaves either none or all of them with
   // the session; on resume, any tile in job_tiles means the whole step is done.
   if (ctx.storage.jobs().TilesDone(ctx.job.id).empty()) {

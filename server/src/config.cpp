@@ -1,6 +1,7 @@
 #include "mapdelta/server/config.hpp"
 
 #include "mapdelta/common/config_reader.hpp"
+#include "mapdelta/server/storage.hpp"
 
 namespace mapdelta::server {
 namespace {
@@ -19,8 +20,11 @@ ConfigSchema Schema(ServerConfig& c) {
       .Field("http.read_timeout_s", &h.read_timeout_s, 1, 86400)
       .Field("http.write_timeout_s", &h.write_timeout_s, 1, 86400)
       .Field("http.web_root", &h.web_root)
+      .Field("storage.backend", &c.storage.backend, {"sqlite", "postgres"})
       .Field("storage.database", &c.storage.database)
+      .Field("storage.postgres_url", &c.storage.postgres_url)
       .Field("storage.tile_size_m", &c.storage.tile_size_m, 1.0, 1e6)
+      .Field("jobs.lease_s", &c.jobs.lease_s, 1, 3600)
       .Field("log.level", &c.log.level, {"debug", "info", "warn", "error"})
       .Field("log.format", &c.log.format, {"json", "text"})
       .Field("ingest.max_keyframes_per_session", &c.ingest.max_keyframes_per_session, 1, INT64_MAX)
@@ -40,6 +44,13 @@ ConfigSchema Schema(ServerConfig& c) {
       .Field("pipeline.chunk_keyframes", &q.chunk_keyframes, 1, 100000)
       .Field("classify.th_ch_m", &c.classify.th_ch_m, 1e-6, 50)
       .Field("classify.min_voxel_support", &c.classify.min_voxel_support, 1, 1000000)
+      .Rule([&c] {
+        if (c.storage.backend == "sqlite" && c.storage.database.empty())
+          return "storage.database: must not be empty (backend sqlite)";
+        if (c.storage.backend == "postgres" && c.storage.postgres_url.empty())
+          return "storage.postgres_url: must be set for backend postgres (a libpq URL)";
+        return "";
+      })
       .Rule([&q] {
         return q.free_space_depth_m > q.max_depth_m
                    ? "pipeline.free_space_depth_m: must be <= pipeline.max_depth_m"
@@ -63,6 +74,7 @@ ServerConfig LoadServerConfig(const std::string& path) {
 
 std::string DumpServerConfig(const ServerConfig& config) {
   ServerConfig copy = config;
+  copy.storage.postgres_url = RedactPostgresUrl(config.storage.postgres_url);  // no password in logs
   return ConfigToYaml(Schema(copy));
 }
 

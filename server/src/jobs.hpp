@@ -4,6 +4,7 @@
 // a crash skips what is done and recomputes the rest (every step is a pure function of the
 // stored inputs, so recomputation gives the same answer).
 #include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -21,16 +22,28 @@ struct JobInterrupted : std::runtime_error {
   bool cancelled;
 };
 
+// Thrown by JobContext::WaitForEarlierJobs when an earlier job has no worker (queued, or its
+// worker died): this worker hands its job back to the queue and takes the earlier one first.
+struct JobYield : std::runtime_error {
+  explicit JobYield(int64_t earlier_id)
+      : std::runtime_error("job " + std::to_string(earlier_id) + " must run first") {}
+};
+
 struct JobContext {
   Storage& storage;
   const ServerConfig& config;
   Metrics& metrics;
   JobRecord job;
-  std::function<bool()> shutting_down;
+  std::function<bool()> shutting_down;  // true on shutdown, or when this worker lost the lease
 
   void Progress(double fraction, const std::string& message);
   void CheckStop();      // throws JobInterrupted on shutdown or cancel request
   void CheckShutdown();  // throws JobInterrupted(false) on shutdown only (past the point of no cancel)
+  // Jobs write tiles in job-id order, whatever the number of workers, so the result is the
+  // one-worker result: waits until every earlier job (or, with of_type, every earlier job of
+  // that type) has finished. Throws JobYield if that job has no worker, JobInterrupted on
+  // shutdown.
+  void WaitForEarlierJobs(std::optional<JobType> of_type = std::nullopt);
 };
 
 // Current classification parameters (settings table, else the config's).

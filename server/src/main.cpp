@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstring>
 #include <map>
+#include <optional>
 #include <filesystem>
 #include <iostream>
 #include <thread>
@@ -26,10 +27,10 @@ namespace cli = mapdelta::cli;
 namespace {
 
 constexpr const char* kUsage =
-    R"(mapdelta-server: crowdsourced point-cloud map-update server (REST, SQLite).
+    R"(mapdelta-server: crowdsourced point-cloud map-update server (REST; SQLite or PostgreSQL).
 
 Usage:
-  mapdelta-server serve        --config FILE [--port N] [--web-root DIR]
+  mapdelta-server serve        --config FILE [--port N] [--web-root DIR] [--api-only | --worker-only]
   mapdelta-server token create --config FILE --role vehicle|reader|admin --name NAME
   mapdelta-server token revoke --config FILE --id TOKEN_ID
   mapdelta-server token list   --config FILE
@@ -41,6 +42,10 @@ Usage:
 serve         Runs the HTTP API (see /v1/openapi.yaml). Prints "listening on HOST:PORT" to
               stdout once ready. SIGTERM/SIGINT: stop accepting, finish in-flight requests,
               pause the running job between tiles (it resumes at the next start), exit 0.
+              --api-only: the HTTP API without the job worker (jobs wait for a worker).
+              --worker-only: the job worker without HTTP; prints "worker ready" once it
+              runs. Several API and worker processes share one PostgreSQL database
+              (storage.backend: postgres; deploy/SCALE-OUT.md).
 token create  Prints the new token's id and secret. The secret is shown only once; only
               its SHA-256 is stored.
 token revoke  Revokes a token by id (requests with it get 401 from then on).
@@ -74,9 +79,56 @@ void InstallLogSink(const mds::LogConfig& c) {
   });
 }
 
+// Blocks the stop signals in every thread (call before any thread starts); WaitForStop
+// then receives one of them.
+sigset_t BlockStopSignals() {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  return signals;
+}
+
+void WaitForStop(const sigset_t& signals) {
+  int sig = 0;
+  sigwait(&signals, &sig);
+  MD_LOG(kInfo, "signal " << sig << " received: shutting down");
+}
+
+// One serving process per SQLite database: a second one would run a second job worker on the
+// same jobs. Held until Serve returns (or the kernel drops it when the process dies). PostgreSQL
+// is shared by design: its workers claim jobs with row locks and leases instead.
+std::optional<mds::InstanceLock> LockSqliteDatabase(const mds::ServerConfig& config) {
+  if (config.storage.backend != "sqlite") return std::nullopt;
+  const std::string lock_path = mds::InstanceLock::PathFor(config.storage.database);
+  std::string holder;
+  auto instance_lock = mds::InstanceLock::TryAcquire(lock_path, &holder);
+  if (!instance_lock) {
+    throw md::Error(md::ErrorCode::kConflict,
+                    "database " + config.storage.database +
+                        " is already served by another mapdelta-server (pid " + holder + ", lock " +
+                        lock_path + "); stop that one or set another storage.database");
+  }
+  return instance_lock;
+}
+
+// --worker-only: jobs, no HTTP.
+int ServeWorker(mds::MapService& service, const sigset_t& signals) {
+  service.StartJobWorker();
+  std::printf("worker ready\n");
+  std::fflush(stdout);
+  MD_LOG(kInfo, "job worker running (no HTTP)");
+  WaitForStop(signals);
+  service.StopJobWorker();  // the running job pauses between tiles
+  MD_LOG(kInfo, "stopped cleanly");
+  return 0;
+}
+
 int Serve(const std::vector<std::string>& args) {
   std::string config_path, web_root;
   int port_override = 0;
+  bool api_only = false, worker_only = false;
   cli::Parser cli(
       "mapdelta-server serve",
       "Runs the HTTP API (see /v1/openapi.yaml). Prints \"listening on HOST:PORT\" to stdout once\n"
@@ -88,38 +140,28 @@ int Serve(const std::vector<std::string>& args) {
           "web-root", &web_root,
           "serves the web map's static files at / (overrides http.web_root; \"\" or off: no page)",
           "DIR")
+      .Flag("api-only", &api_only, "HTTP API without a job worker (scale-out, PostgreSQL)")
+      .Flag("worker-only", &worker_only,
+            "job worker without HTTP; prints \"worker ready\" (scale-out, PostgreSQL)")
       .Footer(cli::kExitCodesFooter);
   if (!cli.Parse(args, std::cout)) return cli::kExitOk;
   if (cli.Given("port") && (port_override < 0 || port_override > 65535)) {
     cli::FailUsage(cli.program(),
                    "--port: expected 0..65535, got " + std::to_string(port_override));
   }
+  if (api_only && worker_only) {
+    cli::FailUsage(cli.program(), "--api-only and --worker-only exclude each other");
+  }
   mds::ServerConfig config = mds::LoadServerConfig(config_path);
   if (cli.Given("port")) config.http.port = port_override;
   if (cli.Given("web-root")) config.http.web_root = web_root.empty() ? "off" : web_root;
   InstallLogSink(config.log);
   MD_LOG(kInfo, "effective config:\n" << mds::DumpServerConfig(config));
+  const auto instance_lock = LockSqliteDatabase(config);
 
-  // One serving process per database: a second one would run a second job worker on the same
-  // jobs. Held until Serve returns (or the kernel drops it when the process dies).
-  const std::string lock_path = mds::InstanceLock::PathFor(config.storage.database);
-  std::string holder;
-  const auto instance_lock = mds::InstanceLock::TryAcquire(lock_path, &holder);
-  if (!instance_lock) {
-    throw md::Error(md::ErrorCode::kConflict,
-                    "database " + config.storage.database +
-                        " is already served by another mapdelta-server (pid " + holder + ", lock " +
-                        lock_path + "); stop that one or set another storage.database");
-  }
-
-  // Block the stop signals in every thread; one thread waits for them with sigwait.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-
-  mds::MapService service(config, mds::OpenSqliteStorage(config.storage.database));
+  const sigset_t signals = BlockStopSignals();
+  mds::MapService service(config, mds::OpenConfiguredStorage(config));
+  if (worker_only) return ServeWorker(service, signals);
   mds::HttpServer http(service);
   const std::string page = mds::ResolveWebRoot(config.http.web_root, mds::CurrentExecutablePath(),
                                                MAPDELTA_BUILD_DIR, MAPDELTA_SOURCE_WEB_DIST);
@@ -130,17 +172,16 @@ int Serve(const std::vector<std::string>& args) {
     MD_LOG(kInfo, "web map served from " << page);
   }
   const int port = http.Bind(config.http.listen_address, config.http.port);
-  service.StartJobWorker();
+  if (!api_only) service.StartJobWorker();
   std::thread waiter([&] {
-    int sig = 0;
-    sigwait(&signals, &sig);
-    MD_LOG(kInfo, "signal " << sig << " received: shutting down");
+    WaitForStop(signals);
     service.StopJobWorker();  // first: the running job pauses between tiles
     http.Stop();
   });
   std::printf("listening on %s:%d\n", config.http.listen_address.c_str(), port);
   std::fflush(stdout);
-  MD_LOG(kInfo, "listening on " << config.http.listen_address << ":" << port);
+  MD_LOG(kInfo, "listening on " << config.http.listen_address << ":" << port
+                                << (api_only ? " (API only, no job worker)" : ""));
   http.Run();
   if (waiter.joinable()) {
     // Run() only returns after Stop(), i.e. after a signal; the waiter is done or finishing.
@@ -154,7 +195,7 @@ int Serve(const std::vector<std::string>& args) {
 auto OpenStorageForAdmin(const std::string& config_path) {
   const mds::ServerConfig config = mds::LoadServerConfig(config_path);
   InstallLogSink(mds::LogConfig{"warn", "text"});
-  return mds::OpenSqliteStorage(config.storage.database);
+  return mds::OpenConfiguredStorage(config);
 }
 
 int TokenCreate(const std::vector<std::string>& args) {
@@ -221,7 +262,7 @@ int ImportPrior(const std::vector<std::string>& args) {
   if (!cli.Parse(args, std::cout)) return cli::kExitOk;
   const mds::ServerConfig config = mds::LoadServerConfig(config_path);
   InstallLogSink(mds::LogConfig{"info", "text"});
-  mds::MapService service(config, mds::OpenSqliteStorage(config.storage.database));
+  mds::MapService service(config, mds::OpenConfiguredStorage(config));
   std::fprintf(stderr, "importing %s ...\n", path.c_str());
   if (!cli.Given("note")) note = std::filesystem::path(path).filename().string();
   std::printf("%s\n", service.ImportPriorFile(path, note).dump(2).c_str());

@@ -8,6 +8,7 @@
 #include "api_json.hpp"
 #include "auth.hpp"
 #include "blob_codec.hpp"
+#include "job_lease.hpp"
 #include "jobs.hpp"
 #include "keyframe_cloud.hpp"
 #include "mapdelta/common/depth_image.hpp"
@@ -230,7 +231,7 @@ std::string MapService::RenderMetrics() { return metrics_.Render(storage_->jobs(
 // ---------------------------------------------------------------- job worker
 
 void MapService::StartJobWorker() {
-  const int requeued = storage_->jobs().RequeueInterrupted();
+  const int requeued = storage_->jobs().RequeueInterrupted(NowMs());
   if (requeued > 0) MD_LOG(kWarn, requeued << " job(s) interrupted by a previous stop will resume");
   stopping_ = false;
   worker_ = std::thread([this] { WorkerLoop(); });
@@ -263,12 +264,15 @@ void MapService::RunQueuedJobsNow() {
 }
 
 bool MapService::RunOneJob() {
-  auto job = storage_->jobs().ClaimNext(NowMs());
+  const int64_t lease_ms = int64_t{config_.jobs.lease_s} * 1000;
+  JobStore& jobs = storage_->jobs();
+  auto job = jobs.ClaimNext(NowMs(), lease_ms);
   if (!job) return false;
   const auto t0 = std::chrono::steady_clock::now();
   MD_LOG(kInfo, "job " << job->id << " (" << ToString(job->type) << ") started, attempt "
-                       << job->attempts);
-  JobContext ctx{*storage_, config_, metrics_, *job, [this] { return stopping_.load(); }};
+                       << job->attempts << ", worker " << jobs.worker_id());
+  const LeaseKeeper lease(jobs, job->id, lease_ms);
+  JobContext ctx{*storage_, config_, metrics_, *job, [&] { return stopping_.load() || lease.lost(); }};
   std::optional<int64_t> session_id;
   if (job->type == JobType::kCommit) {
     session_id = Json::parse(job->params_json).value("session_id", int64_t{0});
@@ -286,22 +290,29 @@ bool MapService::RunOneJob() {
         result = RunReclassifyJob(ctx);
         break;
     }
-    storage_->jobs().Finish(job->id, JobState::kSucceeded, "done", result.dump(), NowMs());
+    jobs.Finish(job->id, JobState::kSucceeded, "done", result.dump(), NowMs());
     MD_LOG(kInfo, "job " << job->id << " succeeded: " << result.dump());
+  } catch (const JobYield& e) {
+    MD_LOG(kInfo, "job " << job->id << " back to the queue: " << e.what());
+    jobs.Release(job->id);
+    return true;  // claim again: the earlier job comes first
   } catch (const JobInterrupted& e) {
+    if (lease.lost()) return true;  // its new worker finishes it
     if (!e.cancelled) {
-      MD_LOG(kInfo, "job " << job->id << " paused by shutdown; it resumes at the next start");
+      MD_LOG(kInfo, "job " << job->id << " paused by shutdown; another worker or the next start resumes it");
+      jobs.Release(job->id);
       return false;
     }
-    storage_->jobs().Finish(job->id, JobState::kCancelled,
-                            "cancelled while running (finished tiles kept)", std::nullopt, NowMs());
-    if (session_id)
-      storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
+    jobs.Finish(job->id, JobState::kCancelled, "cancelled while running (finished tiles kept)", std::nullopt, NowMs());
+    if (session_id) storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
     MD_LOG(kInfo, "job " << job->id << " cancelled");
   } catch (const std::exception& e) {
-    storage_->jobs().Finish(job->id, JobState::kFailed, e.what(), std::nullopt, NowMs());
-    if (session_id)
-      storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
+    if (lease.lost()) {
+      MD_LOG(kWarn, "job " << job->id << " stopped after its lease was lost: " << e.what());
+      return true;
+    }
+    jobs.Finish(job->id, JobState::kFailed, e.what(), std::nullopt, NowMs());
+    if (session_id) storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
     MD_LOG(kError, "job " << job->id << " failed: " << e.what());
   }
   metrics_.jobs_finished += 1;

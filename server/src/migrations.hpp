@@ -13,5 +13,6 @@ struct Migration {
 };
 
 const std::vector<Migration>& EmbeddedMigrations();  // sorted by version
+const std::vector<Migration>& EmbeddedPostgresMigrations();  // migrations/postgres
 
 }  // namespace mapdelta::server

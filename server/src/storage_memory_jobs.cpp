@@ -29,14 +29,58 @@ std::vector<JobRecord> MemoryJobStore::List(int64_t limit, int64_t offset) {
   return out;
 }
 
-std::optional<JobRecord> MemoryJobStore::ClaimNext(int64_t now_ms) {
+namespace {
+// Running, and its worker's lease ran out (or it never had one): no worker has it.
+bool LeaseRanOut(const JobRecord& job, int64_t now_ms) {
+  return job.state == JobState::kRunning && job.lease_expires_ms.value_or(0) < now_ms;
+}
+}  // namespace
+
+std::optional<JobRecord> MemoryJobStore::ClaimNext(int64_t now_ms, int64_t lease_ms) {
   auto lock = Lock();
   for (auto& [id, job] : t().jobs) {
-    if (job.state != JobState::kQueued) continue;
+    if (job.state != JobState::kQueued && !LeaseRanOut(job, now_ms)) continue;
     job.state = JobState::kRunning;
     job.attempts += 1;
     if (!job.started_ms) job.started_ms = now_ms;
+    job.lease_owner = worker_id_;
+    job.lease_expires_ms = now_ms + lease_ms;
     return job;
+  }
+  return std::nullopt;
+}
+
+bool MemoryJobStore::RenewLease(int64_t id, int64_t now_ms, int64_t lease_ms) {
+  auto lock = Lock();
+  auto it = t().jobs.find(id);
+  if (it == t().jobs.end() || it->second.state != JobState::kRunning ||
+      it->second.lease_owner != worker_id_) {
+    return false;
+  }
+  it->second.lease_expires_ms = now_ms + lease_ms;
+  return true;
+}
+
+void MemoryJobStore::Release(int64_t id) {
+  auto lock = Lock();
+  auto it = t().jobs.find(id);
+  if (it == t().jobs.end() || it->second.state != JobState::kRunning ||
+      it->second.lease_owner != worker_id_) {
+    return;
+  }
+  it->second.state = JobState::kQueued;
+  it->second.lease_owner.reset();
+  it->second.lease_expires_ms.reset();
+}
+
+std::optional<EarlierJob> MemoryJobStore::UnfinishedBefore(int64_t job_id, int64_t now_ms,
+                                                           std::optional<JobType> type) {
+  auto lock = Lock();
+  for (const auto& [id, job] : t().jobs) {
+    if (id >= job_id) break;
+    if (job.state != JobState::kQueued && job.state != JobState::kRunning) continue;
+    if (type && job.type != *type) continue;
+    return EarlierJob{id, job.state == JobState::kQueued || LeaseRanOut(job, now_ms)};
   }
   return std::nullopt;
 }
@@ -59,6 +103,8 @@ void MemoryJobStore::Finish(int64_t id, JobState state, const std::string& messa
   job.message = message;
   job.result_json = result_json;
   job.finished_ms = now_ms;
+  job.lease_owner.reset();
+  job.lease_expires_ms.reset();
   if (state == JobState::kSucceeded) job.progress = 1.0;
 }
 
@@ -90,13 +136,15 @@ bool MemoryJobStore::IsCancelRequested(int64_t id) {
   return it != t().jobs.end() && it->second.cancel_requested;
 }
 
-int MemoryJobStore::RequeueInterrupted() {
+int MemoryJobStore::RequeueInterrupted(int64_t /*now_ms*/) {
   auto lock = Lock();
-  int n = 0;
+  int n = 0;  // one process owns the store: whatever runs at its start was left by a crash
   for (auto& [id, job] : t().jobs) {
     if (job.state != JobState::kRunning) continue;
     job.state = JobState::kQueued;
     job.message = "resumed after restart";
+    job.lease_owner.reset();
+    job.lease_expires_ms.reset();
     ++n;
   }
   return n;

@@ -72,15 +72,23 @@ class SqliteJobStore final : public JobStore, SqliteArea {
   int64_t Create(JobType type, const std::string& params_json, int64_t now_ms) override;
   std::optional<JobRecord> Get(int64_t id) override;
   std::vector<JobRecord> List(int64_t limit, int64_t offset) override;
-  std::optional<JobRecord> ClaimNext(int64_t now_ms) override;
+  std::optional<JobRecord> ClaimNext(int64_t now_ms, int64_t lease_ms) override;
+  bool RenewLease(int64_t id, int64_t now_ms, int64_t lease_ms) override;
+  void Release(int64_t id) override;
+  std::optional<EarlierJob> UnfinishedBefore(int64_t job_id, int64_t now_ms,
+                                             std::optional<JobType> type) override;
+  const std::string& worker_id() const override { return worker_id_; }
   void UpdateProgress(int64_t id, double progress, const std::string& message) override;
   void Finish(int64_t id, JobState state, const std::string& message,
               const std::optional<std::string>& result_json, int64_t now_ms) override;
   std::optional<JobState> RequestCancel(int64_t id, int64_t now_ms) override;
   bool IsCancelRequested(int64_t id) override;
-  int RequeueInterrupted() override;
+  int RequeueInterrupted(int64_t now_ms) override;
   std::set<std::string> TilesDone(int64_t job_id) override;
   std::vector<std::pair<JobState, int64_t>> CountByState() override;
+
+ private:
+  const std::string worker_id_ = NewWorkerId();
 };
 
 class SqliteTileStore final : public TileStore, SqliteArea {

@@ -6,7 +6,7 @@ namespace mapdelta::server {
 namespace {
 constexpr const char* kJobColumns =
     "id, type, state, params_json, progress, message, result_json, cancel_requested, attempts, "
-    "created_ms, started_ms, finished_ms";
+    "created_ms, started_ms, finished_ms, lease_owner, lease_expires_ms";
 
 JobRecord ReadJob(sql::Stmt& s) {
   JobRecord j;
@@ -22,6 +22,8 @@ JobRecord ReadJob(sql::Stmt& s) {
   j.created_ms = s.Int(9);
   if (!s.IsNull(10)) j.started_ms = s.Int(10);
   if (!s.IsNull(11)) j.finished_ms = s.Int(11);
+  j.lease_owner = s.OptText(12);
+  if (!s.IsNull(13)) j.lease_expires_ms = s.Int(13);
   return j;
 }
 
@@ -56,26 +58,78 @@ std::vector<JobRecord> SqliteJobStore::List(int64_t limit, int64_t offset) {
   return out;
 }
 
-std::optional<JobRecord> SqliteJobStore::ClaimNext(int64_t now_ms) {
+std::optional<JobRecord> SqliteJobStore::ClaimNext(int64_t now_ms, int64_t lease_ms) {
   auto lock = Lock();
   sql::Transaction tx(db());
   int64_t id = 0;
   {
-    sql::Stmt s(db(), "SELECT id FROM jobs WHERE state = ? ORDER BY id LIMIT 1");
-    s.Bind(1, ToString(JobState::kQueued));
+    // Queued, or running under a lease that ran out (its worker died).
+    sql::Stmt s(db(),
+                "SELECT id FROM jobs WHERE state = ? OR (state = ? AND "
+                "COALESCE(lease_expires_ms, 0) < ?) ORDER BY id LIMIT 1");
+    s.Bind(1, ToString(JobState::kQueued)).Bind(2, ToString(JobState::kRunning)).Bind(3, now_ms);
     if (!s.Step()) return std::nullopt;
     id = s.Int(0);
   }
   sql::Stmt u(db(),
               "UPDATE jobs SET state = ?, attempts = attempts + 1, "
-              "started_ms = COALESCE(started_ms, ?) WHERE id = ?");
-  u.Bind(1, ToString(JobState::kRunning)).Bind(2, now_ms).Bind(3, id).Run();
+              "started_ms = COALESCE(started_ms, ?), lease_owner = ?, lease_expires_ms = ? "
+              "WHERE id = ?");
+  u.Bind(1, ToString(JobState::kRunning))
+      .Bind(2, now_ms)
+      .Bind(3, worker_id_)
+      .Bind(4, now_ms + lease_ms)
+      .Bind(5, id)
+      .Run();
   sql::Stmt s(db(), std::string("SELECT ") + kJobColumns + " FROM jobs WHERE id = ?");
   s.Bind(1, id);
   s.Step();
   JobRecord j = ReadJob(s);
   tx.Commit();
   return j;
+}
+
+bool SqliteJobStore::RenewLease(int64_t id, int64_t now_ms, int64_t lease_ms) {
+  auto lock = Lock();
+  sql::Stmt s(db(),
+              "UPDATE jobs SET lease_expires_ms = ? WHERE id = ? AND lease_owner = ? AND state = ?");
+  s.Bind(1, now_ms + lease_ms)
+      .Bind(2, id)
+      .Bind(3, worker_id_)
+      .Bind(4, ToString(JobState::kRunning))
+      .Run();
+  return db().Changes() > 0;
+}
+
+void SqliteJobStore::Release(int64_t id) {
+  auto lock = Lock();
+  sql::Stmt s(db(),
+              "UPDATE jobs SET state = ?, lease_owner = NULL, lease_expires_ms = NULL "
+              "WHERE id = ? AND lease_owner = ? AND state = ?");
+  s.Bind(1, ToString(JobState::kQueued))
+      .Bind(2, id)
+      .Bind(3, worker_id_)
+      .Bind(4, ToString(JobState::kRunning))
+      .Run();
+}
+
+std::optional<EarlierJob> SqliteJobStore::UnfinishedBefore(int64_t job_id, int64_t now_ms,
+                                                           std::optional<JobType> type) {
+  auto lock = Lock();
+  sql::Stmt s(db(),
+              "SELECT id, state = ? OR COALESCE(lease_expires_ms, 0) < ? FROM jobs "
+              "WHERE id < ? AND state IN (?, ?) AND (? IS NULL OR type = ?) ORDER BY id LIMIT 1");
+  const std::optional<std::string> type_name =
+      type ? std::optional<std::string>(std::string(ToString(*type))) : std::nullopt;
+  s.Bind(1, ToString(JobState::kQueued))
+      .Bind(2, now_ms)
+      .Bind(3, job_id)
+      .Bind(4, ToString(JobState::kQueued))
+      .Bind(5, ToString(JobState::kRunning))
+      .Bind(6, type_name)
+      .Bind(7, type_name);
+  if (!s.Step()) return std::nullopt;
+  return EarlierJob{s.Int(0), s.Int(1) != 0};
 }
 
 void SqliteJobStore::UpdateProgress(int64_t id, double progress, const std::string& message) {
@@ -89,7 +143,8 @@ void SqliteJobStore::Finish(int64_t id, JobState state, const std::string& messa
   auto lock = Lock();
   sql::Stmt s(db(),
               "UPDATE jobs SET state = ?, message = ?, result_json = ?, finished_ms = ?, "
-              "progress = CASE WHEN ? THEN 1.0 ELSE progress END WHERE id = ?");
+              "progress = CASE WHEN ? THEN 1.0 ELSE progress END, lease_owner = NULL, "
+              "lease_expires_ms = NULL WHERE id = ?");
   s.Bind(1, ToString(state))
       .Bind(2, message)
       .Bind(3, result_json)
@@ -133,9 +188,12 @@ bool SqliteJobStore::IsCancelRequested(int64_t id) {
   return s.Step() && s.Int(0) != 0;
 }
 
-int SqliteJobStore::RequeueInterrupted() {
+int SqliteJobStore::RequeueInterrupted(int64_t /*now_ms*/) {
   auto lock = Lock();
-  sql::Stmt s(db(), "UPDATE jobs SET state = ?, message = 'resumed after restart' WHERE state = ?");
+  // One process per SQLite file: whatever is running at its start was left by a crash.
+  sql::Stmt s(db(),
+              "UPDATE jobs SET state = ?, message = 'resumed after restart', lease_owner = NULL, "
+              "lease_expires_ms = NULL WHERE state = ?");
   s.Bind(1, ToString(JobState::kQueued)).Bind(2, ToString(JobState::kRunning)).Run();
   return db().Changes();
 }

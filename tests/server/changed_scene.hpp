@@ -36,6 +36,21 @@ inline BoxScene ChangedScene() {
   return s;
 }
 
+// The benchmarks' 300 m street of 8 m boxes every 30 m; changed: box 3 removed, one added.
+inline BoxScene StreetScene(bool changed) {
+  BoxScene s;
+  s.ground.min = Eigen::Vector3f(-60, -20, 0);
+  s.ground.max = Eigen::Vector3f(360, 60, 0);
+  s.ground_z = kGroundZ;
+  for (int i = 0; i < 10; ++i) {
+    if (changed && i == 3) continue;  // removed
+    const double x = i * 30.0;
+    s.boxes.push_back({{x, 10, kGroundZ}, {x + 8, 16, 4.6}});
+  }
+  if (changed) s.boxes.push_back({{105, 10, kGroundZ}, {112, 16, 4.6}});  // added
+  return s;
+}
+
 inline PinholeCamera TestCamera() {
   PinholeCamera c;
   c.width = 160;

@@ -1,6 +1,7 @@
 #pragma once
-// The server tests' fixture: a MapService on a fresh SQLite file, the real HTTP server on a
-// free loopback port (in-process), tokens of the three roles and an httplib client.
+// The server tests' fixture: a MapService on a fresh database (SQLite by default; a suite that
+// overrides Backend() runs on PostgreSQL too), the real HTTP server on a free loopback port
+// (in-process), tokens of the three roles and an httplib client.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/server/http_server.hpp"
 #include "mapdelta/server/map_service.hpp"
+#include "server_backends.hpp"
 
 #include <httplib.h>  // last: its <resolv.h> defines macros that break Eigen
 
@@ -43,8 +45,9 @@ class HttpServerTest : public ::testing::Test {
     dir_ = std::filesystem::temp_directory_path() / ("mds_http_" + std::to_string(::getpid()));
     std::filesystem::remove_all(dir_);
     std::filesystem::create_directories(dir_);
-    service_ = std::make_unique<MapService>(TestConfig((dir_ / "db.sqlite").string()),
-                                            OpenSqliteStorage((dir_ / "db.sqlite").string()));
+    ServerConfig config = TestConfig("");
+    UseFreshDatabase(Backend(), dir_, &config);
+    service_ = std::make_unique<MapService>(config, OpenConfiguredStorage(config));
     admin_ = "Bearer " + CreateToken(service_->storage(), "admin", Role::kAdmin, NowMs()).secret;
     vehicle_ = "Bearer " + CreateToken(service_->storage(), "car", Role::kVehicle, NowMs()).secret;
     reader_ = "Bearer " + CreateToken(service_->storage(), "viewer", Role::kReader, NowMs()).secret;
@@ -66,6 +69,9 @@ class HttpServerTest : public ::testing::Test {
     service_.reset();
     std::filesystem::remove_all(dir_);
   }
+
+  // The storage backend (one of kServerBackends); parameterized suites return their parameter.
+  virtual std::string Backend() const { return "sqlite"; }
 
   // Lets a test set up the server (e.g. mount a web root) before it starts serving.
   virtual void BeforeRun(HttpServer&) {}

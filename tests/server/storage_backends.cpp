@@ -1,6 +1,7 @@
 #include "storage_backends.hpp"
 
 #include "mapdelta/server/memory_storage.hpp"
+#include "server_backends.hpp"
 
 namespace mapdelta::server::testing {
 
@@ -11,6 +12,13 @@ std::vector<StorageBackend> StorageBackends() {
          return OpenSqliteStorage((scratch / "contract.sqlite").string());
        }},
       {"Memory", [](const std::filesystem::path&) { return OpenMemoryStorage(); }},
+      {"Postgres",
+       [](const std::filesystem::path&) {
+         static int databases = 0;  // one server per test process, a database per storage
+         const std::string url = mapdelta::testing::SharedPostgres().CreateDatabase(
+             "contract_" + std::to_string(databases++));
+         return OpenPostgresStorage(url, 4);
+       }},
   };
 }
 

@@ -14,6 +14,10 @@
 
 namespace mapdelta::server::testing {
 
+// The lease of job claims in the contract tests: long enough that no claim lapses unless a
+// test moves the clock past it on purpose.
+inline constexpr int64_t kLeaseMs = 1000;
+
 class StorageContract : public ::testing::TestWithParam<StorageBackend> {
  protected:
   void SetUp() override {

@@ -246,7 +246,7 @@ TEST_F(CommitPaths, RefreshResumedAfterItsVersionFinishesWithoutASecondVersion) 
     db.Exec("UPDATE jobs SET state = 'running', finished_ms = NULL WHERE id = " + std::to_string(id));
     db.Exec("UPDATE tile_changes SET prior_version = 1, changes = x'' WHERE prior_version = 2");
   }
-  EXPECT_EQ(fast_->storage().jobs().RequeueInterrupted(), 1);
+  EXPECT_EQ(fast_->storage().jobs().RequeueInterrupted(NowMs()), 1);
   fast_->RunQueuedJobsNow();
   const Json resumed = fast_->GetJob(id);
   ASSERT_EQ(resumed["state"], "succeeded") << resumed.dump(2);

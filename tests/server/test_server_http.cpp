@@ -2,7 +2,8 @@
 // client. A prior of ground + two boxes is imported; two vehicles upload sessions over a
 // changed scene (box A removed, box C added; depth rendered analytically); the changes must
 // lie on box A (removed) and box C (new); a refresh job must produce prior version 2 with
-// box C and without box A, while version 1 stays readable.
+// box C and without box A, while version 1 stays readable. Every test runs on both storage
+// backends (SQLite and a throw-away PostgreSQL).
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -27,8 +28,10 @@ namespace {
 
 using namespace mapdelta::testing;  // NOLINT: the shared test scene
 
-class ServerHttpTest : public HttpServerTest {
+class ServerHttpTest : public HttpServerTest, public ::testing::WithParamInterface<std::string> {
  protected:
+  std::string Backend() const override { return GetParam(); }
+
   int64_t CreateSession(const std::string& vehicle) {
     const Json camera{{"width", 160}, {"height", 90}, {"fx", 80}, {"fy", 80}, {"cx", 80}, {"cy", 45}};
     auto [status, body] = Call(client_->Post("/v1/sessions", H(vehicle_),
@@ -78,7 +81,7 @@ class ServerHttpTest : public HttpServerTest {
   }
 };
 
-TEST_F(ServerHttpTest, AuthRolesAnd401Vs403) {
+TEST_P(ServerHttpTest, AuthRolesAnd401Vs403) {
   EXPECT_EQ(Call(client_->Get("/health")).first, 200);
   EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1")).first, 401);
   EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer mdt_nope"))).first, 401);
@@ -105,7 +108,7 @@ TEST_F(ServerHttpTest, AuthRolesAnd401Vs403) {
   EXPECT_EQ(echoed->get_header_value("X-Request-Id"), "trace-42");
 }
 
-TEST_F(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
+TEST_P(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
   const int64_t s = CreateSession("car-1");
   const SE3 T = CameraLookingMinusY(0, 25, kCameraHeight, kPitch);
   const std::string png = PngString(ChangedScene().Render(TestCamera(), T, kMaxDepth));
@@ -164,7 +167,7 @@ TEST_F(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
   EXPECT_EQ(Call(client_->Get("/health")).first, 200);
 }
 
-TEST_F(ServerHttpTest, TwoSessionsChangesAndRefresh) {
+TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   // 1. Import the prior (admin endpoint, PCD bytes).
   const PointCloud prior = PriorScene().Sample(0.4);
   const std::string prior_file = (dir_ / "prior.pcd").string();
@@ -337,7 +340,7 @@ TEST_F(ServerHttpTest, TwoSessionsChangesAndRefresh) {
 
 // Malformed input on every body and parameter: each gets a 4xx JSON error, nothing is stored,
 // and the server keeps serving.
-TEST_F(ServerHttpTest, MalformedInputGets4xxAndTheServerKeepsServing) {
+TEST_P(ServerHttpTest, MalformedInputGets4xxAndTheServerKeepsServing) {
   const int64_t s = CreateSession("car-1");
   const SE3 T = CameraLookingMinusY(0, 25, kCameraHeight, kPitch);
   const std::string png = PngString(ChangedScene().Render(TestCamera(), T, kMaxDepth));
@@ -438,6 +441,9 @@ TEST_F(ServerHttpTest, MalformedInputGets4xxAndTheServerKeepsServing) {
   EXPECT_EQ(Call(client_->Get("/health")).first, 200);
   EXPECT_EQ(service_->storage().priors().ListVersions().size(), 0u);
 }
+
+INSTANTIATE_TEST_SUITE_P(Backends, ServerHttpTest, ::testing::ValuesIn(kServerBackends),
+                         BackendName());
 
 }  // namespace
 }  // namespace mapdelta::server

@@ -1,24 +1,35 @@
-// The PostgreSQL foundations against a real server started by the test
+// The PostgreSQL backend's foundations against a real server started by the test
 // (tests/support/temp_postgres.hpp): the throw-away server itself (it goes down with a killed
-// test process), and the libpq wrapper: exact round trips, checked types, errors, one-line
-// connection errors without the password.
+// test process), the libpq wrapper (exact round trips, checked types, errors, one-line
+// connection errors without the password) and its pool, both backends' migrations reaching the
+// same schema, and one-line start errors (unreachable, wrong password, schema newer than the
+// binary) in the library and from the real binary.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <bit>
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <set>
+#include <sstream>
 #include <thread>
 
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/server/storage.hpp"
 #include "pg_db.hpp"
 #include "pg_pool.hpp"
+#include "server_backends.hpp"
+#include "sqlite_db.hpp"
+#include "support/temp_dir.hpp"
 #include "temp_postgres.hpp"
 
 namespace mapdelta::server {
@@ -28,10 +39,7 @@ using mapdelta::testing::TempPostgres;
 namespace fs = std::filesystem;
 
 // One server per test process (ctest runs each test in its own process).
-TempPostgres& Server() {
-  static TempPostgres server;
-  return server;
-}
+TempPostgres& Server() { return mapdelta::testing::SharedPostgres(); }
 
 bool ProcessGone(pid_t pid) {
   // A zombie nobody reaps still answers kill(0): count state Z as gone.
@@ -202,6 +210,169 @@ TEST(PgPool, HandsOutAtMostItsSizeAndDropsConnectionsLeftInATransaction) {
     EXPECT_TRUE(c->reusable());
     EXPECT_EQ(c->Query("SELECT 1").Int(0, 0), 1);
   }
+}
+
+// table -> column names, from each backend's catalogue.
+using Schema = std::map<std::string, std::set<std::string>>;
+
+Schema SqliteSchema(const std::string& path) {
+  sql::Db db(path);
+  Schema schema;
+  sql::Stmt tables(db, "SELECT name FROM sqlite_master WHERE type = 'table'");
+  while (tables.Step()) {
+    const std::string table = tables.Text(0);
+    sql::Stmt cols(db, "SELECT name FROM pragma_table_info(?)");
+    cols.Bind(1, table);
+    while (cols.Step()) schema[table].insert(cols.Text(0));
+  }
+  return schema;
+}
+
+Schema PostgresSchema(pg::Connection& c) {
+  Schema schema;
+  const pg::Result r = c.Query(
+      "SELECT table_name::text, column_name::text FROM information_schema.columns "
+      "WHERE table_schema = 'public'");
+  for (int i = 0; i < r.rows(); ++i) schema[r.Text(i, 0)].insert(r.Text(i, 1));
+  return schema;
+}
+
+TEST(PostgresMigrations, ReachTheSameVersionTablesAndColumnsAsSqlite) {
+  const fs::path dir = mapdelta::testing::FreshTempDir("mds_pg_schema");
+  const std::string sqlite_path = (dir / "db.sqlite").string();
+  OpenSqliteStorage(sqlite_path);
+  const std::string url = Server().CreateDatabase("schema");
+  OpenPostgresStorage(url, 2);
+  OpenPostgresStorage(url, 2);  // a second start finds nothing to do
+  pg::Connection c(url);
+  const pg::Result versions = c.Query("SELECT version FROM schema_migrations ORDER BY version");
+  ASSERT_EQ(versions.rows(), KnownSchemaVersion());
+  EXPECT_EQ(versions.Int(versions.rows() - 1, 0), KnownSchemaVersion());
+  sql::Db sqlite(sqlite_path);
+  sql::Stmt v(sqlite, "SELECT MAX(version) FROM schema_migrations");
+  ASSERT_TRUE(v.Step());
+  EXPECT_EQ(v.Int(0), KnownSchemaVersion());
+  const Schema expected = SqliteSchema(sqlite_path);
+  EXPECT_GE(expected.size(), 14u);
+  EXPECT_EQ(PostgresSchema(c), expected);
+  fs::remove_all(dir);
+}
+
+TEST(PostgresLeases, TwoWorkersShareTheQueueAndATakenOverJobRefusesItsOldWorker) {
+  const std::string url = Server().CreateDatabase("leases");
+  auto a = OpenPostgresStorage(url, 2);  // two processes' storages on one database
+  auto b = OpenPostgresStorage(url, 2);
+  ASSERT_NE(a->jobs().worker_id(), b->jobs().worker_id());
+  const int64_t first = a->jobs().Create(JobType::kRefresh, "{}", 1);
+  const int64_t second = a->jobs().Create(JobType::kRefresh, "{}", 1);
+  ASSERT_EQ(a->jobs().ClaimNext(10, 100)->id, first);
+  ASSERT_EQ(b->jobs().ClaimNext(11, 100)->id, second);  // first is a's
+  EXPECT_FALSE(b->jobs().ClaimNext(12, 100));
+  // A process starting now leaves running jobs with live leases alone (SQLite takes them all).
+  EXPECT_EQ(b->jobs().RequeueInterrupted(50), 0);
+  EXPECT_EQ(a->jobs().Get(first)->state, JobState::kRunning);
+  // a stalls past its lease: b takes the job over.
+  EXPECT_TRUE(b->jobs().RenewLease(second, 150, 1000));
+  const auto taken = b->jobs().ClaimNext(200, 100);
+  ASSERT_TRUE(taken);
+  EXPECT_EQ(taken->id, first);
+  EXPECT_EQ(taken->attempts, 2);
+  EXPECT_EQ(taken->lease_owner, b->jobs().worker_id());
+  EXPECT_FALSE(a->jobs().RenewLease(first, 201, 100));
+  // a's late writes are refused whole, and its late finish changes nothing.
+  TileStateRecord state;
+  state.tile = TileId(0, 0);
+  state.aggregate = {1, 2, 3};
+  try {
+    a->tiles().ApplyUpdates(first, {state}, 202);
+    ADD_FAILURE() << "the old worker wrote tiles of a job taken over";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kConflict) << e.what();
+  }
+  EXPECT_FALSE(b->tiles().GetState(TileId(0, 0)));
+  EXPECT_TRUE(b->jobs().TilesDone(first).empty());
+  a->jobs().Finish(first, JobState::kFailed, "stale", std::nullopt, 203);
+  EXPECT_EQ(b->jobs().Get(first)->state, JobState::kRunning);
+  b->tiles().ApplyUpdates(first, {state}, 204);  // its owner writes
+  EXPECT_TRUE(a->tiles().GetState(TileId(0, 0)));
+  b->jobs().Finish(first, JobState::kSucceeded, "done", std::nullopt, 205);
+  EXPECT_EQ(a->jobs().Get(first)->state, JobState::kSucceeded);
+}
+
+// The message of the Error a call throws ("" if none).
+template <typename F>
+std::string ErrorOf(F&& f, ErrorCode expected_code) {
+  try {
+    f();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), expected_code) << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "no error";
+  return "";
+}
+
+TEST(PostgresStart, UnreachableWrongPasswordAndNewerSchemaAreOneLineErrors) {
+  TempPostgres& server = Server();
+  const std::string url = server.CreateDatabase("start");
+  const std::string secret = server.password();
+  // Unreachable: port 1 on loopback (privileged, nothing listens there).
+  const std::string closed =
+      "postgresql://mapdelta:" + secret + "@127.0.0.1:1/start?connect_timeout=5";
+  std::string m = ErrorOf([&] { OpenPostgresStorage(closed, 1); }, ErrorCode::kIo);
+  EXPECT_NE(m.find("cannot connect to PostgreSQL"), std::string::npos) << m;
+  EXPECT_NE(m.find("refused"), std::string::npos) << m;
+  EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  EXPECT_EQ(m.find(secret), std::string::npos) << m;
+
+  m = ErrorOf([&] { OpenPostgresStorage(server.TcpUrl("start", "wrong-" + secret), 1); },
+              ErrorCode::kIo);
+  EXPECT_NE(m.find("password authentication failed"), std::string::npos) << m;
+  EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  EXPECT_EQ(m.find("wrong-" + secret), std::string::npos) << m;
+
+  OpenPostgresStorage(server.TcpUrl("start", secret), 1);  // the right password migrates
+  pg::Connection c(url);
+  c.Query("INSERT INTO schema_migrations VALUES ($1, 'from_the_future', 0)",
+          pg::Params().Add(int64_t{KnownSchemaVersion() + 1}));
+  m = ErrorOf([&] { OpenPostgresStorage(url, 1); }, ErrorCode::kUnsupported);
+  EXPECT_NE(m.find("newer than this server knows"), std::string::npos) << m;
+}
+
+// Runs the real binary; returns its exit code and stderr.
+std::pair<int, std::string> RunServer(const std::string& config_yaml, const fs::path& dir) {
+  const fs::path config = dir / "server.yaml";
+  std::ofstream(config) << config_yaml;
+  const std::string cmd = std::string(MAPDELTA_SERVER_BIN) + " serve --config " + config.string() +
+                          " --port 0 --web-root '' 2>" + (dir / "stderr.txt").string() +
+                          " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  std::ifstream in(dir / "stderr.txt");
+  std::stringstream err;
+  err << in.rdbuf();
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, err.str()};
+}
+
+TEST(PostgresStart, TheServerBinaryExitsWithOneClearLine) {
+  TempPostgres& server = Server();
+  server.CreateDatabase("binary");
+  const fs::path dir = mapdelta::testing::FreshTempDir("mds_pg_binary");
+  const std::string prefix =
+      "log:\n  level: error\nstorage:\n  backend: postgres\n  postgres_url: ";
+  for (const auto& [url, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"postgresql://mapdelta@127.0.0.1:1/binary?connect_timeout=5", "refused"},
+           {server.TcpUrl("binary", "wrong"), "password authentication failed"}}) {
+    const auto [code, err] = RunServer(prefix + "\"" + url + "\"\n", dir);
+    EXPECT_EQ(code, 1) << err;
+    EXPECT_EQ(err.rfind("error: cannot connect to PostgreSQL", 0), 0u) << err;
+    EXPECT_NE(err.find(expected), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  }
+  // A config naming the backend without a URL is a config error (exit 2), before any connect.
+  const auto [code, err] = RunServer("storage:\n  backend: postgres\n", dir);
+  EXPECT_EQ(code, 2) << err;
+  EXPECT_NE(err.find("storage.postgres_url: must be set"), std::string::npos) << err;
+  fs::remove_all(dir);
 }
 
 }  // namespace

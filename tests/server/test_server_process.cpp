@@ -1,7 +1,8 @@
 // Process-level tests of the real mapdelta-server binary: the token CLI, SIGKILL during
 // uploads (no acknowledged keyframe lost), SIGKILL during a commit (the job resumes and gives
 // the same per-tile result as an uninterrupted run), SIGTERM (clean exit 0), one server per
-// database and per port.
+// SQLite database and per port. Each on both storage backends (SQLite and a throw-away
+// PostgreSQL).
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -16,6 +17,8 @@
 
 #include "changed_scene.hpp"
 #include "mapdelta/common/cloud_io.hpp"
+#include "server_process.hpp"
+#include "server_backends.hpp"
 
 #include <httplib.h>  // last: its <resolv.h> defines macros that break Eigen
 
@@ -25,77 +28,25 @@ namespace {
 using Json = nlohmann::json;
 namespace fs = std::filesystem;
 
-// Runs the CLI to completion and returns its stdout (and stderr, if asked). `timeout` ends
-// a command that should have exited but serves instead (exit code 124), so that such a test
-// fails instead of hanging.
-std::string RunCli(const std::string& args, int* exit_code, bool with_stderr = false) {
-  const std::string cmd = "timeout 60 " + std::string(MAPDELTA_SERVER_BIN) + " " + args +
-                          (with_stderr ? " 2>&1" : " 2>/dev/null");
-  FILE* pipe = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[512];
-  while (pipe && fgets(buf, sizeof(buf), pipe)) out += buf;
-  const int status = pipe ? pclose(pipe) : -1;
-  *exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return out;
-}
-
-// A server child process; reads "listening on HOST:PORT" from its stdout.
-class ServerProcess {
- public:
-  ServerProcess(const std::string& config, const std::string& log) {
-    int fds[2];
-    EXPECT_EQ(pipe(fds), 0);
-    pid_ = fork();
-    if (pid_ == 0) {
-      dup2(fds[1], 1);
-      FILE* err = std::fopen(log.c_str(), "a");
-      if (err) dup2(fileno(err), 2);
-      close(fds[0]);
-      execl(MAPDELTA_SERVER_BIN, MAPDELTA_SERVER_BIN, "serve", "--config", config.c_str(), "--port", "0", nullptr);
-      _exit(127);
-    }
-    close(fds[1]);
-    FILE* out = fdopen(fds[0], "r");
-    char line[256] = {0};
-    if (out && fgets(line, sizeof(line), out)) {
-      const std::string s(line);
-      port_ = std::stoi(s.substr(s.rfind(':') + 1));
-    }
-    if (out) fclose(out);
-    EXPECT_GT(port_, 0) << "server did not start; see " << log;
-  }
-  ~ServerProcess() {
-    if (pid_ > 0) Kill(SIGKILL);
-  }
-  int port() const { return port_; }
-  // Sends the signal and waits; returns the exit status (or -signal).
-  int Kill(int sig) {
-    ::kill(pid_, sig);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    pid_ = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
-  }
-  pid_t pid() const { return pid_; }
-
- private:
-  pid_t pid_ = -1;
-  int port_ = 0;
-};
-
-class ServerProcessTest : public ::testing::Test {
+class ServerProcessTest : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() / ("mds_proc_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     config_ = (dir_ / "server.yaml").string();
-    std::ofstream(config_) << "storage:\n  database: " << (dir_ / "db.sqlite").string()
-                           << "\n  tile_size_m: 20\nlog:\n  level: info\n  format: json\n"
+    log_ = (dir_ / "server.log").string();
+    NewDatabase();
+  }
+  // Writes the config with a new, empty database of this test's backend and makes tokens.
+  void NewDatabase() {
+    server::ServerConfig db;
+    UseFreshDatabase(GetParam(), dir_, &db);
+    std::ofstream(config_) << "storage:\n  backend: " << db.storage.backend << "\n  database: \""
+                           << db.storage.database << "\"\n  postgres_url: \"" << db.storage.postgres_url
+                           << "\"\n  tile_size_m: 20\njobs:\n  lease_s: 2\nlog:\n  level: info\n  format: json\n"
                            << "pipeline:\n  max_depth_m: 50\n  free_space_depth_m: 20\n  pixel_stride: 1\n"
                            << "classify:\n  th_ch_m: 2.4\n";
-    log_ = (dir_ / "server.log").string();
     admin_ = Token("admin");
     vehicle_ = Token("vehicle");
   }
@@ -163,7 +114,7 @@ class ServerProcessTest : public ::testing::Test {
   std::string config_, log_, admin_, vehicle_;
 };
 
-TEST_F(ServerProcessTest, TokenCliAndSigterm) {
+TEST_P(ServerProcessTest, TokenCliAndSigterm) {
   int code = 0;
   EXPECT_NE(RunCli("--help", &code).find("token create"), std::string::npos);
   EXPECT_EQ(code, 0);
@@ -183,7 +134,8 @@ TEST_F(ServerProcessTest, TokenCliAndSigterm) {
 // A second server on the same database is refused (it would run a second job worker on the
 // same jobs) with an error naming the first one; the kernel drops the first one's lock when it
 // is SIGKILLed, so a restart after a crash is not blocked.
-TEST_F(ServerProcessTest, SecondServerOnTheSameDatabaseIsRefused) {
+TEST_P(ServerProcessTest, SecondServerOnTheSameDatabaseIsRefused) {
+  if (GetParam() != "sqlite") GTEST_SKIP() << "PostgreSQL is shared by several servers by design";
   auto first = std::make_unique<ServerProcess>(config_, log_);
   ASSERT_GT(first->port(), 0);
   int code = 0;
@@ -205,7 +157,7 @@ TEST_F(ServerProcessTest, SecondServerOnTheSameDatabaseIsRefused) {
 
 // A port another server listens on is an error at start (httplib's default SO_REUSEPORT let
 // both bind and split the connections), even for a server of another database.
-TEST_F(ServerProcessTest, PortInUseFailsWithAClearError) {
+TEST_P(ServerProcessTest, PortInUseFailsWithAClearError) {
   ServerProcess first(config_, log_);
   ASSERT_GT(first.port(), 0);
   const std::string other = (dir_ / "other.yaml").string();
@@ -221,7 +173,7 @@ TEST_F(ServerProcessTest, PortInUseFailsWithAClearError) {
   EXPECT_EQ(first.Kill(SIGTERM), 0);
 }
 
-TEST_F(ServerProcessTest, SigkillDuringUploadsLosesNoAcknowledgedKeyframe) {
+TEST_P(ServerProcessTest, SigkillDuringUploadsLosesNoAcknowledgedKeyframe) {
   constexpr int kMaxUploads = 100000;
   auto server = std::make_unique<ServerProcess>(config_, log_);
   int64_t session = 0;
@@ -260,7 +212,7 @@ TEST_F(ServerProcessTest, SigkillDuringUploadsLosesNoAcknowledgedKeyframe) {
   EXPECT_EQ(restarted.Kill(SIGTERM), 0);
 }
 
-TEST_F(ServerProcessTest, SigkillDuringCommitResumesToTheSameResult) {
+TEST_P(ServerProcessTest, SigkillDuringCommitResumesToTheSameResult) {
   constexpr int kKeyframes = 51;
   // Reference: an uninterrupted commit of the same session in a first database.
   auto tiles_of = [&](httplib::Client& c) {
@@ -289,11 +241,7 @@ TEST_F(ServerProcessTest, SigkillDuringCommitResumesToTheSameResult) {
     server.Kill(SIGTERM);
   }
   ASSERT_FALSE(reference.empty()) << "no changed tiles in the reference run";
-  fs::remove(dir_ / "db.sqlite");
-  fs::remove(dir_ / "db.sqlite-wal");
-  fs::remove(dir_ / "db.sqlite-shm");
-  admin_ = Token("admin");
-  vehicle_ = Token("vehicle");
+  NewDatabase();
 
   // Same again, killed while the commit job runs.
   double progress_at_kill = -1;
@@ -321,6 +269,9 @@ TEST_F(ServerProcessTest, SigkillDuringCommitResumesToTheSameResult) {
   EXPECT_EQ(tiles_of(c), reference);
   EXPECT_EQ(restarted.Kill(SIGTERM), 0);
 }
+
+INSTANTIATE_TEST_SUITE_P(Backends, ServerProcessTest, ::testing::ValuesIn(kServerBackends),
+                         BackendName());
 
 }  // namespace
 }  // namespace mapdelta::testing

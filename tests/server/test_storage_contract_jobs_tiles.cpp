@@ -17,13 +17,13 @@ std::map<JobState, int64_t> Counts(JobStore& jobs) {
 
 TEST_P(StorageContract, JobsAreClaimedOldestFirstAndListedNewestFirst) {
   JobStore& jobs = s().jobs();
-  EXPECT_FALSE(jobs.ClaimNext(1));
+  EXPECT_FALSE(jobs.ClaimNext(1, kLeaseMs));
   const int64_t a = jobs.Create(JobType::kRefresh, R"({"a":1})", 10);
   const int64_t b = jobs.Create(JobType::kReclassify, "{}", 11);
   const int64_t c = jobs.Create(JobType::kRefresh, "{}", 12);
   EXPECT_LT(a, b);
   EXPECT_LT(b, c);
-  const auto first = jobs.ClaimNext(20);
+  const auto first = jobs.ClaimNext(20, kLeaseMs);
   ASSERT_TRUE(first);
   EXPECT_EQ(first->id, a);
   EXPECT_EQ(first->type, JobType::kRefresh);
@@ -31,7 +31,7 @@ TEST_P(StorageContract, JobsAreClaimedOldestFirstAndListedNewestFirst) {
   EXPECT_EQ(first->attempts, 1);
   EXPECT_EQ(first->started_ms, 20);
   EXPECT_EQ(first->params_json, R"({"a":1})");
-  EXPECT_EQ(jobs.ClaimNext(21)->id, b);
+  EXPECT_EQ(jobs.ClaimNext(21, kLeaseMs)->id, b);
 
   std::vector<int64_t> ids;
   for (const auto& j : jobs.List(10, 0)) ids.push_back(j.id);
@@ -50,8 +50,8 @@ TEST_P(StorageContract, FinishingAJobRecordsItsOutcome) {
   JobStore& jobs = s().jobs();
   const int64_t a = jobs.Create(JobType::kRefresh, "{}", 1),
                 b = jobs.Create(JobType::kRefresh, "{}", 2);
-  jobs.ClaimNext(3);
-  jobs.ClaimNext(3);
+  jobs.ClaimNext(3, kLeaseMs);
+  jobs.ClaimNext(3, kLeaseMs);
   jobs.UpdateProgress(a, 0.4, "half way");
   jobs.UpdateProgress(b, 0.3, "a third");
   EXPECT_EQ(jobs.Get(a)->progress, 0.4);
@@ -84,7 +84,7 @@ TEST_P(StorageContract, CancellingAQueuedCommitReopensItsSession) {
   const auto reopened = s().sessions().Get(session);
   EXPECT_EQ(reopened->state, SessionState::kOpen);
   EXPECT_FALSE(reopened->job_id);
-  EXPECT_FALSE(s().jobs().ClaimNext(7));  // a cancelled job is never claimed
+  EXPECT_FALSE(s().jobs().ClaimNext(7, kLeaseMs));  // a cancelled job is never claimed
   EXPECT_EQ(s().jobs().RequestCancel(job, 8), JobState::kCancelled);  // repeat: unchanged
   EXPECT_EQ(s().jobs().Get(job)->finished_ms, 6);
   EXPECT_FALSE(s().jobs().RequestCancel(job + 1, 8));
@@ -95,13 +95,13 @@ TEST_P(StorageContract, CancellingARunningJobOnlyFlagsIt) {
   JobStore& jobs = s().jobs();
   const int64_t a = jobs.Create(JobType::kReclassify, "{}", 1),
                 b = jobs.Create(JobType::kReclassify, "{}", 1);
-  jobs.ClaimNext(2);
+  jobs.ClaimNext(2, kLeaseMs);
   EXPECT_FALSE(jobs.IsCancelRequested(a));
   EXPECT_EQ(jobs.RequestCancel(a, 3), JobState::kRunning);
   EXPECT_TRUE(jobs.IsCancelRequested(a));
   EXPECT_EQ(jobs.Get(a)->state, JobState::kRunning);
   EXPECT_FALSE(jobs.Get(a)->finished_ms);
-  jobs.ClaimNext(4);
+  jobs.ClaimNext(4, kLeaseMs);
   jobs.Finish(b, JobState::kSucceeded, "done", std::nullopt, 5);
   EXPECT_EQ(jobs.RequestCancel(b, 6), JobState::kSucceeded);  // finished: nothing to cancel
   EXPECT_FALSE(jobs.IsCancelRequested(b));
@@ -113,15 +113,15 @@ TEST_P(StorageContract, InterruptedJobsAreRequeuedAndKeepTheirFirstStart) {
   const int64_t a = jobs.Create(JobType::kRefresh, "{}", 1),
                 b = jobs.Create(JobType::kRefresh, "{}", 1);
   jobs.Create(JobType::kRefresh, "{}", 1);
-  jobs.ClaimNext(10);
-  jobs.ClaimNext(11);
+  jobs.ClaimNext(10, kLeaseMs);
+  jobs.ClaimNext(11, kLeaseMs);
   jobs.Finish(b, JobState::kSucceeded, "done", std::nullopt, 12);
-  EXPECT_EQ(jobs.RequeueInterrupted(), 1);
-  EXPECT_EQ(jobs.RequeueInterrupted(), 0);
+  EXPECT_EQ(jobs.RequeueInterrupted(5000), 1);
+  EXPECT_EQ(jobs.RequeueInterrupted(5000), 0);
   const auto requeued = jobs.Get(a);
   EXPECT_EQ(requeued->state, JobState::kQueued);
   EXPECT_EQ(requeued->message, "resumed after restart");
-  const auto again = jobs.ClaimNext(20);
+  const auto again = jobs.ClaimNext(20, kLeaseMs);
   ASSERT_TRUE(again);
   EXPECT_EQ(again->id, a);
   EXPECT_EQ(again->attempts, 2);
@@ -228,7 +228,7 @@ int64_t SetUpRefresh(Storage& s, int64_t session) {
                             PriorTileRecord{TileId(1, 0), 0, 4, Bytes{2}}},
                            true);
   const int64_t job = s.jobs().Create(JobType::kRefresh, "{}", 2);
-  s.jobs().ClaimNext(3);
+  s.jobs().ClaimNext(3, kLeaseMs);
   TileStateRecord a{TileId(0, 0), Bytes{5}, {session}, 0}, b{TileId(1, 0), Bytes{6}, {session}, 0};
   s.tiles().ApplyUpdates(job, {a, b}, 4);
   TileChangesRecord ca{TileId(0, 0), 1, 2, 0, 4, 0.8, Bytes{7}, "{}"},

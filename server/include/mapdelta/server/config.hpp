@@ -24,8 +24,18 @@ struct HttpConfig {
 };
 
 struct StorageConfig {
-  std::string database = "mapdelta.db";  // SQLite file (WAL files beside it)
+  std::string backend = "sqlite";        // sqlite (embedded, one process) | postgres
+  std::string database = "mapdelta.db";  // SQLite file (WAL files beside it); backend sqlite
+  // libpq connection string for backend postgres ("postgresql://user@host:5432/mapdelta" or
+  // "host=... dbname=..."); its password is never logged (PGPASSWORD / ~/.pgpass work too).
+  std::string postgres_url;
   double tile_size_m = 50.0;
+};
+
+// The job worker. Its claim on a running job is a lease it renews every lease_s / 3: a
+// worker that dies (SIGKILL, lost host) leaves its job to another worker once lease_s passed.
+struct JobsConfig {
+  int lease_s = 30;
 };
 
 struct LogConfig {
@@ -72,6 +82,7 @@ struct ClassifyConfig {
 struct ServerConfig {
   HttpConfig http;
   StorageConfig storage;
+  JobsConfig jobs;
   LogConfig log;
   IngestConfig ingest;
   PipelineConfig pipeline;

@@ -21,7 +21,20 @@ struct JobRecord {
   bool cancel_requested = false;
   int64_t attempts = 0, created_ms = 0;
   std::optional<int64_t> started_ms, finished_ms;
+  // The worker running it (JobStore::worker_id() of its process) and until when, while
+  // running; a running job whose lease ran out has lost its worker.
+  std::optional<std::string> lease_owner;
+  std::optional<int64_t> lease_expires_ms;
 };
+
+// An unfinished job before another (JobStore::UnfinishedBefore).
+struct EarlierJob {
+  int64_t id = 0;
+  bool claimable = false;  // queued, or running with its lease run out: no worker has it
+};
+
+// A new lease owner id for this process: "host:pid:random".
+std::string NewWorkerId();
 
 class JobStore {
  public:
@@ -29,8 +42,22 @@ class JobStore {
   virtual int64_t Create(JobType type, const std::string& params_json, int64_t now_ms) = 0;
   virtual std::optional<JobRecord> Get(int64_t id) = 0;
   virtual std::vector<JobRecord> List(int64_t limit, int64_t offset) = 0;  // newest first
-  // Claims the oldest queued job: running, attempts + 1, started_ms set on the first claim.
-  virtual std::optional<JobRecord> ClaimNext(int64_t now_ms) = 0;
+  // Claims the oldest job that is queued, or running with its lease run out (its worker died
+  // or stalled): running, attempts + 1, started_ms set on the first claim, leased to
+  // worker_id() until now_ms + lease_ms. Several processes may claim at once on a shared
+  // backend; each job goes to one of them.
+  virtual std::optional<JobRecord> ClaimNext(int64_t now_ms, int64_t lease_ms) = 0;
+  // Extends this worker's lease to now_ms + lease_ms; false if the job is no longer running
+  // under it (finished, released, or taken over by another worker).
+  virtual bool RenewLease(int64_t id, int64_t now_ms, int64_t lease_ms) = 0;
+  // Hands this worker's running job back to the queue (it resumes from what is stored).
+  virtual void Release(int64_t id) = 0;
+  // The oldest unfinished (queued or running) job with an id below job_id (and of type, if
+  // given), and whether a worker could claim it at now_ms.
+  virtual std::optional<EarlierJob> UnfinishedBefore(int64_t job_id, int64_t now_ms,
+                                                     std::optional<JobType> type) = 0;
+  // This store's lease owner id: host, pid and a random part.
+  virtual const std::string& worker_id() const = 0;
   virtual void UpdateProgress(int64_t id, double progress, const std::string& message) = 0;
   // Sets state, message, result (nullopt clears it) and finished_ms; kSucceeded sets
   // progress to 1.
@@ -42,7 +69,9 @@ class JobStore {
   virtual std::optional<JobState> RequestCancel(int64_t id, int64_t now_ms) = 0;
   virtual bool IsCancelRequested(int64_t id) = 0;
   // At start-up: jobs left running by a crash go back to queued (to resume). Returns how many.
-  virtual int RequeueInterrupted() = 0;
+  // A backend one process owns (SQLite, memory) takes every running job; a shared one
+  // (PostgreSQL) only those whose lease ran out at now_ms, as live workers hold the others.
+  virtual int RequeueInterrupted(int64_t now_ms) = 0;
   // Tiles the job recorded as applied (TileStore::ApplyUpdates / ApplyChanges).
   virtual std::set<std::string> TilesDone(int64_t job_id) = 0;
   // Only states with at least one job, in no particular order.

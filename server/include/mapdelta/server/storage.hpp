@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "mapdelta/server/config.hpp"
 #include "mapdelta/server/job_store.hpp"
 #include "mapdelta/server/prior_store.hpp"
 #include "mapdelta/server/session_store.hpp"
@@ -42,7 +43,18 @@ class Storage {
 // Opens (creating) the SQLite database and applies pending migrations in one transaction.
 // Throws Error(kUnsupported) if the database's schema is newer than this build knows.
 std::unique_ptr<Storage> OpenSqliteStorage(const std::string& path);
-// Highest migration this build knows.
+// Connects to PostgreSQL (a libpq URL or key=value string) with a pool of up to
+// max_connections and applies pending migrations/postgres/*.sql in one transaction (one
+// process at a time). Throws Error(kIo) if the server cannot be reached or refuses the login
+// (one line: the target without its password, and libpq's reason), Error(kUnsupported) if the
+// schema is newer than this build knows.
+std::unique_ptr<Storage> OpenPostgresStorage(const std::string& conninfo, int max_connections);
+// The backend config.storage.backend names; a PostgreSQL pool gets a connection for each
+// thread that may call storage at once (HTTP workers, job threads, the job worker).
+std::unique_ptr<Storage> OpenConfiguredStorage(const ServerConfig& config);
+// A libpq connection string without its password (for logs and the effective config).
+std::string RedactPostgresUrl(const std::string& conninfo);
+// Highest migration this build knows (both backends are at the same version).
 int KnownSchemaVersion();
 
 }  // namespace mapdelta::server
