@@ -115,6 +115,10 @@ ConfigSchema& ConfigSchema::Field(const std::string& path, std::string* value,
   entries_.push_back({path, value, 0, 0, std::move(choices)});
   return *this;
 }
+ConfigSchema& ConfigSchema::OptionalField(const std::string& path, std::string* value) {
+  entries_.push_back({path, value, 0, 0, {}, true});
+  return *this;
+}
 ConfigSchema& ConfigSchema::Rule(std::function<std::string()> rule) {
   rules_.push_back(std::move(rule));
   return *this;
@@ -132,7 +136,7 @@ std::vector<std::string> ConfigSchema::Problems() const {
               std::string list;
               for (const auto& c : e.choices) list += (list.empty() ? "" : ", ") + c;
               problems.push_back(e.path + ": expected one of " + list + ", got '" + *p + "'");
-            } else if (e.choices.empty() && p->empty()) {
+            } else if (e.choices.empty() && p->empty() && !e.may_be_empty) {
               problems.push_back(e.path + ": must not be empty");
             }
           } else if constexpr (!std::is_same_v<T, bool>) {

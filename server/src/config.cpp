@@ -21,8 +21,8 @@ ConfigSchema Schema(ServerConfig& c) {
       .Field("http.write_timeout_s", &h.write_timeout_s, 1, 86400)
       .Field("http.web_root", &h.web_root)
       .Field("storage.backend", &c.storage.backend, {"sqlite", "postgres"})
-      .Field("storage.database", &c.storage.database)
-      .Field("storage.postgres_url", &c.storage.postgres_url)
+      .OptionalField("storage.database", &c.storage.database)  // the rule below
+      .OptionalField("storage.postgres_url", &c.storage.postgres_url)
       .Field("storage.tile_size_m", &c.storage.tile_size_m, 1.0, 1e6)
       .Field("jobs.lease_s", &c.jobs.lease_s, 1, 3600)
       .Field("log.level", &c.log.level, {"debug", "info", "warn", "error"})

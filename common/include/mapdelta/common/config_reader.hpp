@@ -27,6 +27,8 @@ class ConfigSchema {
   // A string; `choices` empty: any non-empty text.
   ConfigSchema& Field(const std::string& path, std::string* value,
                       std::vector<std::string> choices = {});
+  // A string that may be empty: a setting only one mode needs (a Rule says when it is required).
+  ConfigSchema& OptionalField(const std::string& path, std::string* value);
   // A rule across fields, checked once every field is read: returns the problem
   // ("stereo.block_size: must be odd") or "" when the values are fine.
   ConfigSchema& Rule(std::function<std::string()> rule);
@@ -39,6 +41,7 @@ class ConfigSchema {
     std::variant<int*, int64_t*, double*, bool*, std::string*> value;
     double min = 0, max = 0;  // numbers only
     std::vector<std::string> choices;
+    bool may_be_empty = false;  // strings only
   };
   const std::vector<Entry>& entries() const { return entries_; }
 
