@@ -297,7 +297,8 @@ std::string TempPostgres::CreateDatabase(const std::string& name) {
   if (PQstatus(conn) != CONNECTION_OK) {
     error = PQerrorMessage(conn);
   } else {
-    PGresult* r = PQexec(conn, ("CREATE DATABASE " + name).c_str());
+    // Quoted: the checked name may still be an SQL keyword ("binary", "user").
+    PGresult* r = PQexec(conn, ("CREATE DATABASE \"" + name + "\"").c_str());
     if (PQresultStatus(r) != PGRES_COMMAND_OK) error = PQresultErrorMessage(r);
     PQclear(r);
   }
