@@ -58,8 +58,8 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
   } else if (rule == "confident") {
     params->observed.depth_sigma_per_m2 = 1.25e-3;
     params->observed.depth_sigma_factor = 3.0;
-    params->free_rays_stop_at_prior = true;
-    params->removed_min_free_keyframes = 2;
+    params->free_rays_stop_at_prior = false;
+    params->removed_min_free_keyframes = 3;
   } else {
     throw Error(ErrorCode::kInvalidArgument,
                 "free-space rule '" + rule + "': expected paper or confident");

@@ -5,6 +5,7 @@
 
 #include "api_json.hpp"
 #include "blob_codec.hpp"
+#include "commit_passes.hpp"
 #include "jobs.hpp"
 #include "mapdelta/common/log.hpp"
 #include "tile_classifier.hpp"
@@ -115,7 +116,7 @@ void ReclassifyAround(JobContext& ctx, const TileGrid& grid, const std::vector<T
     ctx.CheckShutdown();
     if (!ctx.storage.tiles().GetState(t)) continue;
     TileClassification c = ClassifyTile(ctx.storage, grid, t, version, cc,
-                                        ctx.config.pipeline.octree_resolution_m, cache);
+                                        PipelineDetectionParams(ctx.config.pipeline), cache);
     c.record.updated_ms = NowMs();
     records.push_back(std::move(c.record));
   }
@@ -158,7 +159,7 @@ Json RunRefreshJob(JobContext& ctx) {
     std::vector<ChangePoint> changes = DecodeChanges(record->changes);
     if (record->prior_version != *latest) {  // classified against an older prior: redo
       changes = ClassifyTile(ctx.storage, grid, tile, *latest, cc,
-                             ctx.config.pipeline.octree_resolution_m, cache).changes;
+                             PipelineDetectionParams(ctx.config.pipeline), cache).changes;
     }
     std::unordered_set<Point, PointHash, PointEq> removed;
     PointCloud added;
@@ -226,7 +227,7 @@ Json RunReclassifyJob(JobContext& ctx) {
     ctx.CheckStop();
     if (done.count(tiles[i].ToString()) || !ctx.storage.tiles().GetState(tiles[i])) continue;
     TileClassification c = ClassifyTile(ctx.storage, grid, tiles[i], version, cc,
-                                        ctx.config.pipeline.octree_resolution_m, cache);
+                                        PipelineDetectionParams(ctx.config.pipeline), cache);
     c.record.updated_ms = NowMs();
     ctx.storage.tiles().ApplyChanges(ctx.job.id, {c.record});
     new_points += c.record.new_count;

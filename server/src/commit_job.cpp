@@ -2,7 +2,7 @@
 //   1. session cloud: back-project depth < th_d (every pixel_stride-th pixel), voxel filter
 //   2. GICP-align it to the prior (paper step 2); a rejected alignment keeps the poses
 //   3. the session's observed octree (hits < th_d, free rays of th_f, bounded by
-//      free_ray_bound_px), with the corrected poses
+//      free_ray_bound_px, under pipeline.free_space's rule), with the corrected poses
 //   4. per touched tile, one transaction: add the session's voxels (support) and membership
 //   5. reclassify touched tiles and their neighbours (paper Alg. 1 + 2 on the aggregate)
 // Steps 1 and 3 run in parallel over chunks of keyframes (commit_passes.cpp); step 1 reads the
@@ -97,6 +97,33 @@ Registration AlignToPrior(JobContext& ctx, const TileGrid& grid, const PointClou
   return r;
 }
 
+// Step 4's tiles: where the session has points, or where it observed some prior point.
+std::map<TileId, PointCloud> TouchedTiles(JobContext& ctx, const TileGrid& grid,
+                                          const PointCloud& cloud,
+                                          std::optional<int64_t> prior_version,
+                                          const SessionObserved& session_observed) {
+  std::map<TileId, PointCloud> by_tile = grid.Split(cloud);
+  const std::vector<Eigen::Vector3d>& camera_centres = session_observed.camera_centres;
+  if (!prior_version || camera_centres.empty()) return by_tile;
+  PointCloud centres;
+  for (const auto& c : camera_centres) centres.push_back(c.cast<float>());
+  const AxisAlignedBox b = Bounds(centres);
+  const double reach = ctx.config.pipeline.max_depth_m;
+  for (const TileId& t : grid.TilesInRect(b.min.x() - reach, b.min.y() - reach,
+                                          b.max.x() + reach, b.max.y() + reach)) {
+    if (by_tile.count(t)) continue;
+    auto prior = ctx.storage.priors().GetTile(t, *prior_version);
+    if (!prior || prior->point_count == 0) continue;
+    for (const Point& p : DecodePoints(prior->points)) {
+      if (session_observed.area.IsObserved(p)) {
+        by_tile[t];  // observed but without session points (e.g. a removed building)
+        break;
+      }
+    }
+  }
+  return by_tile;
+}
+
 }  // namespace
 
 Json RunCommitJob(JobContext& ctx) {
@@ -122,33 +149,14 @@ Json RunCommitJob(JobContext& ctx) {
   ctx.CheckStop();
   const auto t2 = std::chrono::steady_clock::now();
 
-  // 3. Observed octree with corrected poses.
+  // 3. Observed octree with corrected poses (under pipeline.free_space's rule).
   SessionObserved session_observed = BuildSessionObserved(ctx, *session, camera, reg.T_correction, 0.2, 0.8);
-  const ObservedArea& observed = session_observed.area;
-  const std::vector<Eigen::Vector3d>& camera_centres = session_observed.camera_centres;
-  ctx.storage.sessions().PutObserved(session_id, EncodeObserved(observed.SerializeBinary()));
+  ctx.storage.sessions().PutObserved(session_id, EncodeObserved(session_observed.area.SerializeBinary()));
   const auto t3 = std::chrono::steady_clock::now();
 
   // 4. Touched tiles: where the session has points, or observed some prior point.
-  std::map<TileId, PointCloud> by_tile = grid.Split(cloud);
-  if (prior_version && !camera_centres.empty()) {
-    PointCloud centres;
-    for (const auto& c : camera_centres) centres.push_back(c.cast<float>());
-    const AxisAlignedBox b = Bounds(centres);
-    const double reach = pc.max_depth_m;
-    for (const TileId& t : grid.TilesInRect(b.min.x() - reach, b.min.y() - reach,
-                                            b.max.x() + reach, b.max.y() + reach)) {
-      if (by_tile.count(t)) continue;
-      auto prior = ctx.storage.priors().GetTile(t, *prior_version);
-      if (!prior || prior->point_count == 0) continue;
-      for (const Point& p : DecodePoints(prior->points)) {
-        if (observed.IsObserved(p)) {
-          by_tile[t];  // observed but without session points (e.g. a removed building)
-          break;
-        }
-      }
-    }
-  }
+  const std::map<TileId, PointCloud> by_tile =
+      TouchedTiles(ctx, grid, cloud, prior_version, session_observed);
   // Last point at which a cancel request stops the job: from here on it writes, after every
   // earlier job (tiles aggregate sessions in commit order, however many workers run).
   ctx.CheckStop();
@@ -192,13 +200,14 @@ Json RunCommitJob(JobContext& ctx) {
     if (ctx.storage.tiles().GetState(t)) to_classify.push_back(t);
   }
   const ClassifyConfig cc = CurrentClassifyConfig(ctx.storage, ctx.config.classify);
+  const ChangeDetectionParams detection = PipelineDetectionParams(pc);  // the free-space rule
   ObservedCache cache(ctx.storage);
   cache.Put(session_id, std::move(session_observed.area));
   std::vector<TileChangesRecord> records(to_classify.size());
   ParallelFor(static_cast<int64_t>(to_classify.size()), pc.threads, [&](int64_t i) {
     ctx.CheckShutdown();
     records[i] = ClassifyTile(ctx.storage, grid, to_classify[i], prior_version.value_or(0), cc,
-                              pc.octree_resolution_m, cache).record;
+                              detection, cache).record;
     records[i].updated_ms = NowMs();
   });
   ctx.storage.tiles().ApplyChanges(0, records);

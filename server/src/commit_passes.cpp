@@ -7,6 +7,7 @@
 #include "blob_codec.hpp"
 #include "keyframe_cloud.hpp"
 #include "mapdelta/common/depth_image.hpp"
+#include "mapdelta/common/error.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
 #include "parallel_for.hpp"
 
@@ -35,6 +36,26 @@ class ChunkProgress {
 };
 
 }  // namespace
+
+ChangeDetectionParams PipelineDetectionParams(const PipelineConfig& pc) {
+  ChangeDetectionParams params;
+  ObservedAreaParams& op = params.observed;
+  op.resolution_m = pc.octree_resolution_m;
+  op.max_depth_m = pc.max_depth_m;
+  op.free_ray_m = pc.free_space_depth_m;
+  op.free_ray_bound_window_px = pc.free_ray_bound_px;
+  op.prefilter_voxel_m = pc.octree_resolution_m;
+  // Rays through every pixel_stride-th pixel: at 800x450 and a 0.8 m octree, neighbouring
+  // rays fall into the same voxels for most of their length (4x fewer rays at stride 2).
+  op.pixel_stride = pc.pixel_stride;
+  ApplyFreeSpaceRule(pc.free_space, &params);
+  if (params.free_rays_stop_at_prior) {
+    throw Error(ErrorCode::kInvalidArgument, "pipeline.free_space '" + pc.free_space +
+                                                 "': stopping rays at the prior's surfaces is "
+                                                 "not implemented in the commit job");
+  }
+  return params;
+}
 
 SessionCloud BuildSessionCloud(JobContext& ctx, const SessionRecord& session,
                                const PinholeCamera& camera, double progress0, double progress1) {
@@ -89,15 +110,7 @@ SessionObserved BuildSessionObserved(JobContext& ctx, const SessionRecord& sessi
                                      const PinholeCamera& camera, const SE3& T_correction,
                                      double progress0, double progress1) {
   const PipelineConfig& pc = ctx.config.pipeline;
-  ObservedAreaParams op;
-  op.resolution_m = pc.octree_resolution_m;
-  op.max_depth_m = pc.max_depth_m;
-  op.free_ray_m = pc.free_space_depth_m;
-  op.free_ray_bound_window_px = pc.free_ray_bound_px;
-  op.prefilter_voxel_m = pc.octree_resolution_m;
-  // Rays through every pixel_stride-th pixel: at 800x450 and a 0.8 m octree, neighbouring
-  // rays fall into the same voxels for most of their length (4x fewer rays at stride 2).
-  op.pixel_stride = pc.pixel_stride;
+  const ObservedAreaParams op = PipelineDetectionParams(pc).observed;
 
   const int64_t chunk = pc.chunk_keyframes, chunks = NumChunks(session, chunk);
   std::vector<std::optional<ObservedArea>> areas(chunks);

@@ -7,10 +7,18 @@
 
 #include "jobs.hpp"
 #include "mapdelta/common/camera.hpp"
+#include "mapdelta/common/change_detection.hpp"
 #include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/common/point_cloud.hpp"
 
 namespace mapdelta::server {
+
+// The detector's parameters of the pipeline config: th_d, th_f, rho_o, free-ray bound, stride
+// and the free-space rule (pipeline.free_space through ApplyFreeSpaceRule, so the commit job
+// runs the same rule as mapdelta-detect --free-space). Throws Error(kInvalidArgument) for a
+// rule that stops rays at the prior's surfaces (mapdelta-detect's --stop-at-prior ablation;
+// no named rule does, and the commit job does not implement it).
+ChangeDetectionParams PipelineDetectionParams(const PipelineConfig& pc);
 
 struct SessionCloud {
   PointCloud cloud;               // all keyframes' clouds in seq order, voxel-filtered again

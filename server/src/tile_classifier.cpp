@@ -115,7 +115,7 @@ std::vector<int64_t> ObservingSessions(const std::set<int64_t>& tile_sessions, O
 
 TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const TileId& tile,
                                 int64_t prior_version, const ClassifyConfig& params,
-                                double octree_resolution_m, ObservedCache& cache) {
+                                const ChangeDetectionParams& detection, ObservedCache& cache) {
   TileClassification out;
   out.record.tile = tile;
   out.record.prior_version = prior_version;
@@ -126,7 +126,7 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
 
   if (!tile_sessions.empty()) {
     const Neighbourhood n = LoadNeighbourhood(storage, grid, tile, prior_version, params);
-    const ObservedArea& observed = cache.Merged(tile_sessions, octree_resolution_m);
+    const ObservedArea& observed = cache.Merged(tile_sessions, detection.observed.resolution_m);
     const double th_ch = params.th_ch_m;
     // Step 2: paper Alg. 1 (observed prior) and Alg. 2 (new / removed) on the neighbourhood.
     const PointCloud observed_prior = ObservedPriorCloud(n.prior, n.global, observed, th_ch);
@@ -150,8 +150,10 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
       c.confidence = Confidence(c.supported_by.size(), c.observed_by.size());
       out.changes.push_back(std::move(c));
     }
+    const int min_free = detection.removed_min_free_keyframes;
     for (const Point& p : changes.removed_points) {
       if (!bounds.Contains(p)) continue;
+      if (min_free > 0 && !observed.IsSeenFree(p, min_free)) continue;
       const std::set<int64_t> near = SessionsNear(n, global_index, p, radius);
       ChangePoint c;
       c.position = p;

@@ -15,6 +15,7 @@
 #include <set>
 
 #include "blob_codec.hpp"
+#include "mapdelta/common/change_detection.hpp"
 #include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/common/tiling.hpp"
 #include "mapdelta/server/config.hpp"
@@ -47,9 +48,11 @@ struct TileClassification {
 };
 
 // Loads the tile's and its neighbours' prior (at prior_version) and aggregates, classifies
-// the points inside the tile and returns the record to store.
+// the points inside the tile and returns the record to store. From `detection`: the octree
+// resolution, and the free-space rule's per-point evidence (a removed point's voxel seen free
+// by removed_min_free_keyframes keyframes of the tile's sessions together).
 TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const TileId& tile,
                                 int64_t prior_version, const ClassifyConfig& params,
-                                double octree_resolution_m, ObservedCache& cache);
+                                const ChangeDetectionParams& detection, ObservedCache& cache);
 
 }  // namespace mapdelta::server

@@ -136,8 +136,9 @@ TEST(ConfidentFreeSpace, BoxWorldStillFindsTheRemovedBuilding) {
   const PointCloud changed = testing::SampleBoxSurfaces(world.changed, 0.3);
   ChangeDetectionParams params;
   ApplyFreeSpaceRule("confident", &params);
-  EXPECT_TRUE(params.free_rays_stop_at_prior);
-  EXPECT_EQ(params.removed_min_free_keyframes, 2);
+  EXPECT_FALSE(params.free_rays_stop_at_prior);  // measured: costs recall, adds no precision
+  EXPECT_EQ(params.removed_min_free_keyframes, 3);
+  EXPECT_GT(params.observed.depth_sigma_per_m2, 0.0);
   const ChangeDetectionResult result = DetectChanges(world.keyframes, original, params);
   ASSERT_FALSE(result.changes.removed_points.empty());
   for (const auto& p : result.changes.removed_points) {

@@ -121,7 +121,7 @@ TEST(RemovedBreakdown, NamesNoDepthRaysHiddenPointsAndOvershoot) {
 TEST(RemovedBreakdown, ConfidentRuleDoesNotRemoveTheWalls) {
   const Scene s = WriteScene("removed_breakdown_confident");
   EXPECT_GT(Detect(s, "paper"), 50u);
-  EXPECT_EQ(Detect(s, "confident"), 0u);  // one keyframe's evidence, rays stop at the near wall
+  EXPECT_EQ(Detect(s, "confident"), 0u);  // the evidence of one keyframe, not three
 }
 
 }  // namespace

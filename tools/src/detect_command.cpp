@@ -49,7 +49,7 @@ AlignFunction GicpAlignment() {
 struct DetectOptions {
   ChangeDetectionParams params;
   std::string prior_path, keyframe_dir, out_dir, align = "none", format = "pcd";
-  std::string free_space = "paper";
+  std::string free_space = "confident";
 };
 
 // Parses the command line into `o`; false when --help was asked for. The free-space rule is
@@ -73,16 +73,16 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
               "(0 = the paper's rule: always th_f)",
               "W")
       .Option("free-space", &o->free_space,
-              "the rule for the free space behind removed points: paper = Alg. 1-2 as "
-              "published; confident = hit rays end 3 sigma(d) before the hit, rays without depth "
-              "stop at prior surfaces, a removed point's voxel seen free by 2 keyframes "
-              "(change_detection.hpp)",
+              "the rule for the free space behind removed points: confident = a removed "
+              "point's voxel seen free by 3 keyframes, hit rays end 3 sigma(d) before the hit "
+              "(change_detection.hpp); paper = Alg. 1-2 as published",
               "RULE")
       .Choices("free-space", {"paper", "confident"})
       .Option("depth-sigma-per-m2", &sigma_per_m2,
               "ablation: override the rule's depth uncertainty sigma = C d^2 (0 = off)", "C")
       .Option("stop-at-prior", &stop_at_prior,
-              "ablation: override whether rays without depth stop at prior surfaces (0 or 1)",
+              "ablation: override whether rays without depth stop at the prior's surfaces "
+              "(0 or 1)",
               "0|1")
       .Option("removed-min-free-keyframes", &min_free_keyframes,
               "ablation: override how many keyframes must see a removed point's voxel free "

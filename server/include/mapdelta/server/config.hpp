@@ -59,6 +59,11 @@ struct PipelineConfig {
   // the simulator's tiny set (400 px wide, th_f 15) 0.14 -> 0.45 and 0.17 -> 0.74, recall
   // within 0.015 (docs in config/server.example.yaml).
   int free_ray_bound_px = 128;
+  // The rule for the free space behind removed points, as mapdelta-detect --free-space
+  // (ApplyFreeSpaceRule in common/change_detection.hpp): "paper" (Alg. 1-2 as published) or
+  // "confident" (hit rays end 3 sigma(d) before the hit, rays without depth stop at the prior's
+  // surfaces, a removed point's voxel must be seen free by 2 keyframes).
+  std::string free_space = "confident";
   double session_voxel_m = 0.8;       // voxel of the session cloud (0.4 - 0.8)
   double octree_resolution_m = 0.8;   // rho_o
   int pixel_stride = 2;               // every n-th pixel in u and v (session cloud and rays)

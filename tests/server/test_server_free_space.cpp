@@ -1,0 +1,125 @@
+// pipeline.free_space in the commit job: the same scene committed under the paper's rule and
+// under the confident rule (issue 21). A tall wall hides a prior box behind it; in two
+// keyframes stereo found no match on the wall (no depth there), and their th_f rays pass
+// through it and the hidden box. A second prior box is really gone and seen through by many
+// keyframes. The paper's rule reports the hidden box removed on the evidence of those two
+// keyframes; the confident rule asks for three and reports only the box that is really gone.
+#include <gtest/gtest.h>
+
+#include "blob_codec.hpp"
+#include "box_scene.hpp"
+#include "changed_scene.hpp"
+#include "mapdelta/common/cloud_io.hpp"
+#include "mapdelta/common/log.hpp"
+#include "mapdelta/server/map_service.hpp"
+#include "sqlite_db.hpp"
+#include "support/temp_dir.hpp"
+
+namespace mapdelta::server {
+namespace {
+
+using namespace mapdelta::testing;  // NOLINT: the shared test scene
+namespace fs = std::filesystem;
+
+// Taller than the 8 m cameras, so that it fills the view of the cameras in front of it.
+const Box kWall{{-4, 17, kGroundZ}, {10, 18, 14}};
+const Box kHidden{{0, 8, kGroundZ}, {5, 12, 4.6}};  // behind the wall, in both scenes
+
+BoxScene Prior() {
+  BoxScene s = PriorScene();
+  s.boxes = {kBoxA, kWall, kHidden};
+  return s;
+}
+
+BoxScene Real() {  // box A is gone
+  BoxScene s = Prior();
+  s.boxes = {kWall, kHidden};
+  return s;
+}
+
+// The real scene's depth with the wall's pixels left empty (stereo found no match on it).
+DepthImage DepthWithUnmatchedWall(const SE3& T) {
+  DepthImage depth = Real().Render(TestCamera(), T, kMaxDepth);
+  BoxScene wall_only;
+  wall_only.ground = Real().ground;
+  wall_only.ground_z = -1000;  // out of view
+  wall_only.boxes = {kWall};
+  const DepthImage wall = wall_only.Render(TestCamera(), T, kMaxDepth);
+  for (size_t i = 0; i < depth.depth_m.size(); ++i) {
+    if (wall.depth_m[i] > 0 && wall.depth_m[i] <= depth.depth_m[i] + 1e-3f) depth.depth_m[i] = 0;
+  }
+  return depth;
+}
+
+const Json kCamera{{"width", 160}, {"height", 90}, {"fx", 80}, {"fy", 80}, {"cx", 80}, {"cy", 45}};
+
+// Removed points on the hidden box, on the gone box A, and in all.
+struct Removed {
+  size_t hidden = 0, gone = 0, total = 0;
+};
+
+Removed CommitUnder(const std::string& rule, const fs::path& dir) {
+  ServerConfig c;
+  c.storage.database = (dir / (rule + ".db")).string();
+  c.storage.tile_size_m = 20;
+  c.pipeline.max_depth_m = kMaxDepth;
+  c.pipeline.free_space_depth_m = 20;
+  c.pipeline.free_ray_bound_px = 0;  // the paper's th_f rays, so the rule is all that differs
+  c.pipeline.pixel_stride = 1;
+  c.pipeline.gicp_enabled = false;  // exact poses: the test is about the free space
+  c.pipeline.free_space = rule;
+  c.classify.th_ch_m = 2.4;
+  MapService service(c, OpenSqliteStorage(c.storage.database));
+  const std::string prior = (dir / "prior.pcd").string();
+  WriteCloud(prior, Prior().Sample(0.4));
+  service.ImportPriorFile(prior, "test");
+  const int64_t s =
+      service.CreateSession({{"vehicle_id", "car"}, {"camera", kCamera}})["session_id"];
+  int64_t seq = 0;
+  for (double x = -2; x <= 26; x += 2, ++seq) {
+    const SE3 T = CameraLookingMinusY(x, 25.0, kCameraHeight, kPitch);
+    const DepthImage depth =
+        seq < 2 ? DepthWithUnmatchedWall(T) : Real().Render(TestCamera(), T, kMaxDepth);
+    const auto png = EncodeDepthPng(depth);
+    bool stored = false;
+    service.PutKeyframe(s, seq, MetaJson(1000000000LL * (seq + 1), T),
+                        Bytes(png.begin(), png.end()), &stored);
+  }
+  const int64_t job = service.CommitSession(s)["job_id"];
+  service.RunQueuedJobsNow();
+  const Json state = service.GetJob(job);
+  EXPECT_EQ(state["state"], "succeeded") << state.dump(2);
+  Removed r;
+  const auto grown = [](const Box& b, const Point& p) {
+    return b.Distance(p.cast<double>()) < 0.5;
+  };
+  for (const TileId& t : service.storage().tiles().ListAggregated(std::nullopt)) {
+    const auto changes = service.storage().tiles().GetChanges(t);
+    if (!changes) continue;
+    for (const ChangePoint& p : DecodeChanges(changes->changes)) {
+      if (p.kind != ChangeKind::kRemoved) continue;
+      r.total += 1;
+      r.hidden += grown(kHidden, p.position);
+      r.gone += grown(kBoxA, p.position);
+    }
+  }
+  return r;
+}
+
+TEST(CommitFreeSpace, ConfidentRuleReportsTheGoneBoxButNotOneSeenByTwoStrayKeyframes) {
+  log::SetLevel(log::Level::kWarn);
+  const fs::path dir = FreshTempDir("mds_free_space");
+  const Removed paper = CommitUnder("paper", dir);
+  const Removed confident = CommitUnder("confident", dir);
+  fs::remove_all(dir);
+  // The paper's rule: two keyframes' rays make the hidden box removed.
+  EXPECT_GT(paper.hidden, 10u);
+  EXPECT_GT(paper.gone, 20u);
+  // The confident rule: the gone box still, nothing of the hidden one.
+  EXPECT_EQ(confident.hidden, 0u);
+  EXPECT_GT(confident.gone, 20u);
+  EXPECT_LT(confident.total, paper.total);
+}
+
+}  // namespace
+}  // namespace mapdelta::server
