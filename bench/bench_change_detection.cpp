@@ -22,7 +22,9 @@ namespace {
 using namespace mapdelta;
 using Clock = std::chrono::steady_clock;
 
-double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
+double Seconds(Clock::time_point since) {
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
 
 PointCloud Subsample(const PointCloud& cloud, size_t n, std::mt19937& rng, float noise) {
   std::uniform_int_distribution<size_t> pick(0, cloud.size() - 1);
@@ -52,7 +54,8 @@ size_t BaselineCount(const PointCloud& queries, const PointCloud& reference, dou
       continue;
     }
     const double d = tree.nearestKSearch(pcl::PointXYZ(p.x(), p.y(), p.z()), 1, index, d2) > 0
-                         ? std::sqrt(d2[0]) : INFINITY;
+                         ? std::sqrt(d2[0])
+                         : INFINITY;
     count += far ? (d >= th) : (d <= th);
   }
   return count;
@@ -78,16 +81,21 @@ int main(int argc, char** argv) {
   }
   int removed = 0;
   for (const auto& box : original) {
-    const bool in_view = box.min.z() >= 0 && box.min.y() > -10 && box.max.y() < 40 && box.min.x() > -90;
-    if (in_view && removed < 4) ++removed;
-    else changed.push_back(box);
+    const bool in_view =
+        box.min.z() >= 0 && box.min.y() > -10 && box.max.y() < 40 && box.min.x() > -90;
+    if (in_view && removed < 4)
+      ++removed;
+    else
+      changed.push_back(box);
   }
   for (int i = 0; i < 4; ++i) {
     const Eigen::Vector3d min(-80 + 40 * i, 5, 0);
     changed.push_back({min, min + Eigen::Vector3d(10, 10, 20)});
   }
-  const PointCloud prior = Subsample(testing::SampleBoxSurfaces(original, 0.25), 1'000'000, rng, 0.f);
-  const PointCloud global = Subsample(testing::SampleBoxSurfaces(changed, 0.25), 200'000, rng, 0.05f);
+  const PointCloud prior =
+      Subsample(testing::SampleBoxSurfaces(original, 0.25), 1'000'000, rng, 0.f);
+  const PointCloud global =
+      Subsample(testing::SampleBoxSurfaces(changed, 0.25), 200'000, rng, 0.05f);
   PinholeCamera camera;  // 800 x 450, fx 400 (the paper's camera)
   std::vector<std::pair<SE3, DepthImage>> frames;
   for (int k = 0; k < 20; ++k) {
@@ -124,7 +132,8 @@ int main(int argc, char** argv) {
   }
   const double base_octree = Seconds(t);
   row("observed area, 20 frames", ours_octree, base_octree);
-  std::printf("%-34s %12zu %12zu\n", "  known leaves", observed.NumKnownLeaves(), baseline_tree.getNumLeafNodes());
+  std::printf("%-34s %12zu %12zu\n", "  known leaves", observed.NumKnownLeaves(),
+              baseline_tree.getNumLeafNodes());
 
   // 3. Alg. 1 and Alg. 2 (th_ch 3.2), each with its k-d tree build.
   t = Clock::now();
@@ -145,7 +154,8 @@ int main(int argc, char** argv) {
   row("total classification (Alg. 1+2)", ours_alg1 + ours_alg2, base_alg1 + base_alg2);
   std::printf("\nobserved prior %zu, new %zu, removed %zu\n", observed_prior.size(),
               changes.new_points.size(), changes.removed_points.size());
-  const bool agree = base_observed == observed_prior.size() && base_new == changes.new_points.size() &&
+  const bool agree = base_observed == observed_prior.size() &&
+                     base_new == changes.new_points.size() &&
                      base_removed == changes.removed_points.size();
   std::printf("baseline agrees on every count: %s\n", agree ? "yes" : "NO");
   return agree ? 0 : 1;

@@ -57,7 +57,8 @@ Row Run(const std::string& name, const std::string& sequence_dir, const std::str
   const EurocSequence& seq = input.sequence();
   VioOdometrySource odometry(input);
   std::unique_ptr<PriorSource> prior;
-  if (!prior_path.empty()) prior = std::make_unique<FilePriorSource>(prior_path, config.registration.prior_voxel_m);
+  if (!prior_path.empty())
+    prior = std::make_unique<FilePriorSource>(prior_path, config.registration.prior_voxel_m);
   PipelineInputs in;
   in.sequence_dir = sequence_dir;
   in.odometry = &odometry;
@@ -73,8 +74,10 @@ Row Run(const std::string& name, const std::string& sequence_dir, const std::str
   row.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   row.cpu_s = ProcessCpuSeconds() - cpu0;
   if (!seq.groundtruth.empty()) {
-    if (row.result.vio_T_map_body.size() >= 3) row.ate_vio = ComputeAte(seq.groundtruth, row.result.vio_T_map_body).rmse;
-    if (row.result.fused_T_map_body.size() >= 3) row.ate_fused = ComputeAte(seq.groundtruth, row.result.fused_T_map_body).rmse;
+    if (row.result.vio_T_map_body.size() >= 3)
+      row.ate_vio = ComputeAte(seq.groundtruth, row.result.vio_T_map_body).rmse;
+    if (row.result.fused_T_map_body.size() >= 3)
+      row.ate_fused = ComputeAte(seq.groundtruth, row.result.fused_T_map_body).rmse;
   }
   return row;
 }
@@ -105,25 +108,31 @@ int main(int argc, char** argv) {
     const bool baseline = args.baseline;
     int max_frames = 0;
     if (seconds > 0) max_frames = static_cast<int>(seconds * rate) + 1;
-    const int n = max_frames > 0 ? std::min<int>(max_frames, static_cast<int>(frames.size())) : static_cast<int>(frames.size());
+    const int n = max_frames > 0 ? std::min<int>(max_frames, static_cast<int>(frames.size()))
+                                 : static_cast<int>(frames.size());
     const double duration_s = (n - 1) / rate;
-    std::printf("bench_client: %s, %dx%d at %.1f Hz, %d frames = %.1f s, prior %s\n", sequence.c_str(),
-                seq.cam0.intrinsics.width, seq.cam0.intrinsics.height, rate, n, duration_s,
-                prior.empty() ? "none" : prior.c_str());
+    std::printf("bench_client: %s, %dx%d at %.1f Hz, %d frames = %.1f s, prior %s\n",
+                sequence.c_str(), seq.cam0.intrinsics.width, seq.cam0.intrinsics.height, rate, n,
+                duration_s, prior.empty() ? "none" : prior.c_str());
     std::vector<Row> rows;
     rows.push_back(Run("pipelined", sequence, prior, max_frames, true));
     if (baseline) rows.push_back(Run("baseline", sequence, prior, max_frames, false));
-    std::printf("%-10s %8s %8s %7s %9s %9s %9s\n", "structure", "wall_s", "cpu_s", "rt", "keyframes",
-                "ate_vio", "ate_fused");
+    std::printf("%-10s %8s %8s %7s %9s %9s %9s\n", "structure", "wall_s", "cpu_s", "rt",
+                "keyframes", "ate_vio", "ate_fused");
     for (const auto& r : rows) {
       std::printf("%-10s %8.1f %8.1f %7.2f %9zu %9.3f %9.3f\n", r.name.c_str(), r.wall_s, r.cpu_s,
                   duration_s / r.wall_s, r.result.keyframes, r.ate_vio, r.ate_fused);
     }
-    if (rows.size() == 2) std::printf("speed-up (wall, baseline / pipelined): %.2fx\n", rows[1].wall_s / rows[0].wall_s);
+    if (rows.size() == 2)
+      std::printf("speed-up (wall, baseline / pipelined): %.2fx\n",
+                  rows[1].wall_s / rows[0].wall_s);
     std::printf("(rt = sequence duration / wall time: >= 1 keeps up with the camera)\n");
     for (const auto& r : rows) {
-      std::printf("stages of %s (wall seconds summed per stage; stages overlap on their threads):\n", r.name.c_str());
-      for (const auto& s : r.result.timing) std::printf("  %-24s %8.2f s %6zu calls\n", s.stage.c_str(), s.seconds, s.calls);
+      std::printf(
+          "stages of %s (wall seconds summed per stage; stages overlap on their threads):\n",
+          r.name.c_str());
+      for (const auto& s : r.result.timing)
+        std::printf("  %-24s %8.2f s %6zu calls\n", s.stage.c_str(), s.seconds, s.calls);
     }
   } catch (const std::exception& e) {
     std::cerr << "bench_client: " << e.what() << "\n";

@@ -194,16 +194,17 @@ int main(int argc, char** argv) {
       const double t1 = CpuSeconds();
       const auto r = mapdelta::AlignGicp(gicp_target, gicp_source, SE3::Identity(), p);
       const double t2 = CpuSeconds();
-      std::printf("mapdelta 1 thread, CPU time: prepare both clouds (voxels, covariances) %.1f ms, "
-                  "align %.1f ms (target k-d tree, %d iterations)\n", 1e3 * (t1 - t0),
-                  1e3 * (t2 - t1), r.iterations);
+      std::printf(
+          "mapdelta 1 thread, CPU time: prepare both clouds (voxels, covariances) %.1f ms, "
+          "align %.1f ms (target k-d tree, %d iterations)\n",
+          1e3 * (t1 - t0), 1e3 * (t2 - t1), r.iterations);
       if (gicp_target.size() != target.size() || gicp_source.size() != source.size()) {
         std::fprintf(stderr, "warning: re-voxelizing changed the clouds (%zu/%zu, %zu/%zu)\n",
                      gicp_target.size(), target.size(), gicp_source.size(), source.size());
       }
     }
-    std::printf("%-24s %11s  %9s  %11s  %9s  %11s  %12s  %s\n", "method", "wall", "speed-up",
-                "cpu", "speed-up", "err transl", "err rot", "converged");
+    std::printf("%-24s %11s  %9s  %11s  %9s  %11s  %12s  %s\n", "method", "wall", "speed-up", "cpu",
+                "speed-up", "err transl", "err rot", "converged");
     Report("pcl GICP (1 thread)", pcl_run, reference, pcl_run, true);
     Report("mapdelta GICP 1 thread", ours_1, reference, pcl_run, true);
     const std::string name = "mapdelta GICP " + std::to_string(o.threads) + " threads";

@@ -22,8 +22,8 @@
 
 #include "auth.hpp"
 #include "box_scene.hpp"
-#include "mapdelta/common/cli.hpp"
 #include "changed_scene.hpp"
+#include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/server/http_server.hpp"
@@ -37,7 +37,9 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+double Seconds(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double>(b - a).count();
+}
 
 // CPU seconds used by this process so far (all threads): on a shared, loaded machine the
 // wall time says little; CPU / threads is what an idle machine would take at best.
@@ -55,7 +57,9 @@ double LoadAverage() {
 mds::Json Meta(int64_t t_ns, const md::SE3& T) {
   const Eigen::Quaterniond q(T.rotation());
   const Eigen::Vector3d t = T.translation();
-  return mds::Json{{"t_ns", t_ns}, {"T_map_cam", {{"t", {t.x(), t.y(), t.z()}}, {"q", {q.w(), q.x(), q.y(), q.z()}}}}};
+  return mds::Json{
+      {"t_ns", t_ns},
+      {"T_map_cam", {{"t", {t.x(), t.y(), t.z()}}, {"q", {q.w(), q.x(), q.y(), q.z()}}}}};
 }
 
 struct BenchOptions {
@@ -105,7 +109,8 @@ int main(int argc, char** argv) {
   const md::testing::BoxScene changed = md::testing::StreetScene(true);
   std::vector<std::string> pngs(keyframes);
   std::vector<md::SE3> poses(keyframes);
-  std::fprintf(stderr, "rendering %d keyframes of %dx%d ...\n", keyframes, camera.width, camera.height);
+  std::fprintf(stderr, "rendering %d keyframes of %dx%d ...\n", keyframes, camera.width,
+               camera.height);
   const auto r0 = Clock::now();
   {
     std::vector<std::thread> pool;
@@ -122,7 +127,8 @@ int main(int argc, char** argv) {
   }
   size_t png_bytes = 0;
   for (const auto& p : pngs) png_bytes += p.size();
-  std::fprintf(stderr, "rendered in %.1f s, %.1f MB of PNG\n", Seconds(r0, Clock::now()), png_bytes / 1e6);
+  std::fprintf(stderr, "rendered in %.1f s, %.1f MB of PNG\n", Seconds(r0, Clock::now()),
+               png_bytes / 1e6);
 
   // 2. Two databases with the same prior: one ingested through HTTP, one through the facade.
   mds::ServerConfig config;
@@ -135,24 +141,30 @@ int main(int argc, char** argv) {
     c.storage.database = dir + "/" + name + ".db";
     auto s = std::make_unique<mds::MapService>(c, mds::OpenSqliteStorage(c.storage.database));
     const std::string prior = dir + "/prior.pcd";
-    if (!std::filesystem::exists(prior)) md::WriteCloud(prior, md::testing::StreetScene(false).Sample(0.4));
+    if (!std::filesystem::exists(prior))
+      md::WriteCloud(prior, md::testing::StreetScene(false).Sample(0.4));
     s->ImportPriorFile(prior, "bench");
     return s;
   };
-  const mds::Json camera_json{{"width", camera.width}, {"height", camera.height}, {"fx", camera.fx},
-                              {"fy", camera.fy},       {"cx", camera.cx},         {"cy", camera.cy}};
+  const mds::Json camera_json{{"width", camera.width}, {"height", camera.height},
+                              {"fx", camera.fx},       {"fy", camera.fy},
+                              {"cx", camera.cx},       {"cy", camera.cy}};
 
   double http_s = 0;
   if (http_ingest) {
     auto http_service = make_service("http", config);
-    const std::string token = "Bearer " + mds::CreateToken(http_service->storage(), "bench", mds::Role::kVehicle, mds::NowMs()).secret;
+    const std::string token = "Bearer " + mds::CreateToken(http_service->storage(), "bench",
+                                                           mds::Role::kVehicle, mds::NowMs())
+                                              .secret;
     mds::HttpServer http(*http_service);
     const int port = http.Bind("127.0.0.1", 0);
     std::thread server([&] { http.Run(); });
     httplib::Client client("127.0.0.1", port);
     client.set_read_timeout(120, 0);
     const httplib::Headers headers{{"Authorization", token}};
-    auto created = client.Post("/v1/sessions", headers, mds::Json{{"vehicle_id", "bench"}, {"camera", camera_json}}.dump(), "application/json");
+    auto created = client.Post("/v1/sessions", headers,
+                               mds::Json{{"vehicle_id", "bench"}, {"camera", camera_json}}.dump(),
+                               "application/json");
     if (!created || created->status != 201) {
       std::fprintf(stderr, "session creation failed\n");
       return 1;
@@ -160,9 +172,12 @@ int main(int argc, char** argv) {
     const int64_t http_session = mds::Json::parse(created->body)["session_id"];
     const auto h0 = Clock::now();
     for (int k = 0; k < keyframes; ++k) {
-      httplib::MultipartFormDataItems items = {{"meta", Meta(1000000000LL * (k + 1), poses[k]).dump(), "", "application/json"},
-                                               {"depth", pngs[k], "d.png", "image/png"}};
-      auto r = client.Put("/v1/sessions/" + std::to_string(http_session) + "/keyframes/" + std::to_string(k), headers, items);
+      httplib::MultipartFormDataItems items = {
+          {"meta", Meta(1000000000LL * (k + 1), poses[k]).dump(), "", "application/json"},
+          {"depth", pngs[k], "d.png", "image/png"}};
+      auto r = client.Put(
+          "/v1/sessions/" + std::to_string(http_session) + "/keyframes/" + std::to_string(k),
+          headers, items);
       if (!r || r->status != 201) {
         std::fprintf(stderr, "upload %d failed: %s\n", k, r ? r->body.c_str() : "no response");
         return 1;
@@ -175,7 +190,8 @@ int main(int argc, char** argv) {
   }
 
   auto direct_service = make_service("direct", config);
-  const int64_t direct_session = direct_service->CreateSession({{"vehicle_id", "bench"}, {"camera", camera_json}})["session_id"];
+  const int64_t direct_session = direct_service->CreateSession(
+      {{"vehicle_id", "bench"}, {"camera", camera_json}})["session_id"];
   const auto d0 = Clock::now();
   for (int k = 0; k < keyframes; ++k) {
     bool stored = false;
@@ -216,7 +232,8 @@ int main(int argc, char** argv) {
     int64_t base_session = 0;
     {
       auto uploader = make_service("baseline", upload);
-      base_session = uploader->CreateSession({{"vehicle_id", "bench"}, {"camera", camera_json}})["session_id"];
+      base_session =
+          uploader->CreateSession({{"vehicle_id", "bench"}, {"camera", camera_json}})["session_id"];
       for (int k = 0; k < keyframes; ++k) {
         bool stored = false;
         uploader->PutKeyframe(base_session, k, Meta(1000000000LL * (k + 1), poses[k]),
@@ -228,32 +245,40 @@ int main(int argc, char** argv) {
     halves.pipeline.chunk_keyframes = (keyframes + 1) / 2;
     mds::MapService service(halves, mds::OpenSqliteStorage(halves.storage.database));
     base = commit(service, base_session);
-    if (base.result["new_points"] != result["new_points"] || base.result["removed_points"] != result["removed_points"]) {
-      std::fprintf(stderr, "baseline and fast commit disagree: %s vs %s\n", base.result.dump().c_str(), result.dump().c_str());
+    if (base.result["new_points"] != result["new_points"] ||
+        base.result["removed_points"] != result["removed_points"]) {
+      std::fprintf(stderr, "baseline and fast commit disagree: %s vs %s\n",
+                   base.result.dump().c_str(), result.dump().c_str());
       return 1;
     }
   }
 
-  std::printf("bench_server: %d keyframes %dx%d, %.1f MB PNG, %d job threads, chunk %d, load average %.1f\n", keyframes,
-              camera.width, camera.height, png_bytes / 1e6, threads, chunk, LoadAverage());
+  std::printf(
+      "bench_server: %d keyframes %dx%d, %.1f MB PNG, %d job threads, chunk %d, load average "
+      "%.1f\n",
+      keyframes, camera.width, camera.height, png_bytes / 1e6, threads, chunk, LoadAverage());
   std::printf("| measure | mapdelta | baseline | ratio |\n|---|---|---|---|\n");
   if (http_ingest) {
-    std::printf("| ingest, keyframes/s | %.1f (HTTP, 1 client) | %.1f (MapService, no HTTP) | %.2f |\n",
-                keyframes / http_s, keyframes / direct_s, direct_s / http_s);
+    std::printf(
+        "| ingest, keyframes/s | %.1f (HTTP, 1 client) | %.1f (MapService, no HTTP) | %.2f |\n",
+        keyframes / http_s, keyframes / direct_s, direct_s / http_s);
   } else {
-    std::printf("| ingest, keyframes/s | - (--no-http) | %.1f (MapService, no HTTP) | - |\n", keyframes / direct_s);
+    std::printf("| ingest, keyframes/s | - (--no-http) | %.1f (MapService, no HTTP) | - |\n",
+                keyframes / direct_s);
   }
   if (baseline) {
-    std::printf("| commit wall, s | %.2f | %.2f (decode twice, two octrees) | %.2fx faster |\n", commit_s, base.wall_s,
-                base.wall_s / commit_s);
-    std::printf("| commit CPU, s | %.2f | %.2f (decode twice, two octrees) | %.2fx less |\n", commit_cpu_s, base.cpu_s,
-                base.cpu_s / commit_cpu_s);
+    std::printf("| commit wall, s | %.2f | %.2f (decode twice, two octrees) | %.2fx faster |\n",
+                commit_s, base.wall_s, base.wall_s / commit_s);
+    std::printf("| commit CPU, s | %.2f | %.2f (decode twice, two octrees) | %.2fx less |\n",
+                commit_cpu_s, base.cpu_s, base.cpu_s / commit_cpu_s);
   }
-  std::printf("| commit, s | %.2f | 300 (paper: up to 5 min per trajectory) | %.0fx faster |\n", commit_s, 300.0 / commit_s);
-  std::printf("| commit of 700 keyframes (linear), s | %.2f | 10 (target) | %s |\n", commit_s * 700.0 / keyframes,
-              commit_s * 700.0 / keyframes < 10 ? "meets" : "misses");
-  std::printf("commit CPU time %.2f s (both job threads; an idle 2-core machine needs >= %.2f s wall)\n",
-              commit_cpu_s, commit_cpu_s / 2);
+  std::printf("| commit, s | %.2f | 300 (paper: up to 5 min per trajectory) | %.0fx faster |\n",
+              commit_s, 300.0 / commit_s);
+  std::printf("| commit of 700 keyframes (linear), s | %.2f | 10 (target) | %s |\n",
+              commit_s * 700.0 / keyframes, commit_s * 700.0 / keyframes < 10 ? "meets" : "misses");
+  std::printf(
+      "commit CPU time %.2f s (both job threads; an idle 2-core machine needs >= %.2f s wall)\n",
+      commit_cpu_s, commit_cpu_s / 2);
   std::printf("commit stages [s]: %s\n", result["seconds"].dump().c_str());
   if (baseline) std::printf("baseline stages [s]: %s\n", base.result["seconds"].dump().c_str());
   std::printf("session points %s, tiles aggregated %s, new %s, removed %s, registration %s\n",

@@ -140,7 +140,8 @@ Row Run(const std::string& name, const mapdelta::EurocSequence& seq,
     if (row.frames % 100 == 0) std::fprintf(stderr, "\r%s: frame %d", name.c_str(), row.frames);
   }
   std::fprintf(stderr, "\n");
-  if (!seq.groundtruth.empty() && estimate.size() >= 3) row.ate = ComputeAte(seq.groundtruth, estimate).rmse;
+  if (!seq.groundtruth.empty() && estimate.size() >= 3)
+    row.ate = ComputeAte(seq.groundtruth, estimate).rmse;
   return row;
 }
 

@@ -8,6 +8,7 @@ packages=(
   libeigen3-dev libpcl-dev liboctomap-dev libceres-dev libopencv-dev
   libcpp-httplib-dev libsqlite3-dev sqlite3 libssl-dev zlib1g-dev nlohmann-json3-dev libyaml-cpp-dev libcli11-dev
   libnanoflann-dev libembree-dev libgtest-dev libgmock-dev libbenchmark-dev
+  clang-format
   curl jq gnuplot-nox
 )
 # PostgreSQL backend (storage.backend: postgres): libpq to build, and the server binaries

@@ -1,9 +1,9 @@
 // mapdelta-sim: thin CLI over mapdelta_sim (options.hpp, generator.hpp).
+#include <unistd.h>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "mapdelta/common/cli.hpp"
@@ -23,8 +23,10 @@ void DrawProgress(const std::string& stage, size_t done, size_t total) {
   const int width = 30;
   const double f = total ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
   const int filled = static_cast<int>(f * width);
-  std::fprintf(stderr, "\r%-20s [%s%s] %5.1f%% (%zu/%zu)", stage.c_str(), std::string(static_cast<size_t>(filled), '#').c_str(),
-               std::string(static_cast<size_t>(width - filled), '.').c_str(), 100.0 * f, done, total);
+  std::fprintf(stderr, "\r%-20s [%s%s] %5.1f%% (%zu/%zu)", stage.c_str(),
+               std::string(static_cast<size_t>(filled), '#').c_str(),
+               std::string(static_cast<size_t>(width - filled), '.').c_str(), 100.0 * f, done,
+               total);
   if (done >= total) std::fprintf(stderr, "\n");
   std::fflush(stderr);
 }
@@ -52,7 +54,8 @@ int RunRenoise(const std::vector<std::string>& args) {
     DrawProgress(stage, done, total);
   };
   sim::RenoiseDataset(options, progress);
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double secs =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   MD_LOG(kInfo, "renoised dataset written to " << options.out_dir << " in " << secs << " s");
   return cli::kExitOk;
 }
@@ -80,7 +83,8 @@ int RunGenerate(const std::vector<std::string>& args) {
     DrawProgress(stage, done, total);
   };
   sim::GenerateDataset(parsed.config, parsed.out_dir, progress);
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double secs =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   MD_LOG(kInfo, "dataset written to " << parsed.out_dir << " in " << secs << " s");
   return cli::kExitOk;
 }

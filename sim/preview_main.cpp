@@ -40,7 +40,8 @@ int RunPreview(const std::vector<std::string>& args) {
     for (const ChangedScene* cs : {&scenes.s1, &scenes.s2}) {
       std::vector<SequencePlan> plans;
       for (const std::string& name : c.sequences) {
-        if (name.rfind(cs->scene.name + "_0", 0) == 0) plans.push_back(PlanSequence(c, scenes, name));
+        if (name.rfind(cs->scene.name + "_0", 0) == 0)
+          plans.push_back(PlanSequence(c, scenes, name));
       }
       WriteTopView(parsed.out_dir + "/top_" + cs->scene.name + ".png", *cs, scenes.original, plans,
                    1000.0 / c.extent_x);
@@ -55,10 +56,11 @@ int RunPreview(const std::vector<std::string>& args) {
       const Scene scene = RenderScene(plan);
       const EmbreeCaster caster(scene);
       for (double t : times) {
-        const SE3 T = plan.trajectory.Evaluate(std::min(t, plan.duration_s)).T_map_body * rig.T_vehicle_body *
-                      rig.cam[0].T_body_cam;
+        const SE3 T = plan.trajectory.Evaluate(std::min(t, plan.duration_s)).T_map_body *
+                      rig.T_vehicle_body * rig.cam[0].T_body_cam;
         RenderedView view;
-        RenderViewInto(scene, caster, cam, T, {c.shadows, 3}, &view, rays.empty() ? nullptr : &rays);
+        RenderViewInto(scene, caster, cam, T, {c.shadows, 3}, &view,
+                       rays.empty() ? nullptr : &rays);
         char stem[256];
         std::snprintf(stem, sizeof(stem), "%s/%s_%05.1f", parsed.out_dir.c_str(), name.c_str(), t);
         WriteGreyPng(std::string(stem) + "_left.png", cam.width, cam.height, ToGrey8(view, 0.0, 0));

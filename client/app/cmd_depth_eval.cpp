@@ -44,7 +44,8 @@ int RunDepthEval(int argc, char** argv) {
     const DepthImage est = ReadKeyframeDepth(keyframe_dir, folder, kf.t_ns);
     DepthImage gt = ReadDepthPng(it->second);
     if (gt.width < est.width || gt.height != est.height) {
-      throw Error(ErrorCode::kInvalidArgument, it->second + ": size does not match the keyframe depth");
+      throw Error(ErrorCode::kInvalidArgument,
+                  it->second + ": size does not match the keyframe depth");
     }
     gt = CropLeftBand(gt, gt.width - est.width);
     ++keyframes;
@@ -58,9 +59,11 @@ int RunDepthEval(int argc, char** argv) {
       ++n;
     }
   }
-  if (keyframes == 0) throw Error(ErrorCode::kNotFound, "no keyframe has a depth0 image of the same time");
-  std::printf("%zu keyframes: RMSE %.3f m, density %.3f, >1 m errors %.4f (%zu depths)\n", keyframes,
-              std::sqrt(sq / std::max<size_t>(n, 1)), static_cast<double>(n) / std::max<size_t>(gt_n, 1),
+  if (keyframes == 0)
+    throw Error(ErrorCode::kNotFound, "no keyframe has a depth0 image of the same time");
+  std::printf("%zu keyframes: RMSE %.3f m, density %.3f, >1 m errors %.4f (%zu depths)\n",
+              keyframes, std::sqrt(sq / std::max<size_t>(n, 1)),
+              static_cast<double>(n) / std::max<size_t>(gt_n, 1),
               static_cast<double>(bad) / std::max<size_t>(n, 1), n);
   return 0;
 }

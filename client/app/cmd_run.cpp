@@ -107,7 +107,8 @@ SE3 ParsePose(const std::string& text) {
     throw Error(ErrorCode::kInvalidArgument, "--initial-pose: expected \"x y z qx qy qz qw\"");
   }
   const Eigen::Quaterniond q(qw, qx, qy, qz);
-  if (std::abs(q.norm() - 1.0) > 1e-3) throw Error(ErrorCode::kInvalidArgument, "--initial-pose: quaternion is not unit");
+  if (std::abs(q.norm() - 1.0) > 1e-3)
+    throw Error(ErrorCode::kInvalidArgument, "--initial-pose: quaternion is not unit");
   return MakeSE3(q.normalized(), Eigen::Vector3d(x, y, z));
 }
 
@@ -116,16 +117,17 @@ void WriteTiming(const std::string& path, const PipelineResult& r) {
   s << "stage                       seconds   calls  ms/call\n";
   for (const auto& t : r.timing) {
     char line[160];
-    std::snprintf(line, sizeof(line), "%-26s %8.2f %7zu %8.1f\n", t.stage.c_str(), t.seconds, t.calls,
-                  t.calls ? 1000.0 * t.seconds / t.calls : 0.0);
+    std::snprintf(line, sizeof(line), "%-26s %8.2f %7zu %8.1f\n", t.stage.c_str(), t.seconds,
+                  t.calls, t.calls ? 1000.0 * t.seconds / t.calls : 0.0);
     s << line;
   }
   char tail[300];
-  std::snprintf(tail, sizeof(tail),
-                "wall %.2f s, %zu frames, %zu keyframes, registrations %zu accepted / %zu rejected, "
-                "odometry resets %zu (re-anchored %zu, keyframes without map pose %zu)\n",
-                r.wall_seconds, r.frames, r.keyframes, r.registrations_accepted, r.registrations_rejected,
-                r.odometry_resets, r.segments_reanchored, r.keyframes_unplaced);
+  std::snprintf(
+      tail, sizeof(tail),
+      "wall %.2f s, %zu frames, %zu keyframes, registrations %zu accepted / %zu rejected, "
+      "odometry resets %zu (re-anchored %zu, keyframes without map pose %zu)\n",
+      r.wall_seconds, r.frames, r.keyframes, r.registrations_accepted, r.registrations_rejected,
+      r.odometry_resets, r.segments_reanchored, r.keyframes_unplaced);
   s << tail;
   std::ofstream(path) << s.str();
   std::fprintf(stderr, "%s", s.str().c_str());
@@ -147,7 +149,8 @@ int RunPipeline(int argc, char** argv) {
     std::fprintf(stderr,
                  "%s already holds the output of an earlier run. Resume its upload with\n"
                  "  mapdelta-client upload %s/keyframes --server URL --token T\n"
-                 "or choose another --out.\n", out.c_str(), out.c_str());
+                 "or choose another --out.\n",
+                 out.c_str(), out.c_str());
     return 2;
   }
   fs::create_directories(out);
@@ -175,8 +178,9 @@ int RunPipeline(int argc, char** argv) {
     if (frames.empty()) throw Error(ErrorCode::kNotFound, o.sequence + ": no stereo frames");
     const double at_s = o.inject_reset_at_s;
     const double gap_s = o.inject_reset_gap_s;
-    const SE3 T_new_old = MakeSE3(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitZ())),
-                                  Eigen::Vector3d(30.0, -40.0, 2.0));
+    const SE3 T_new_old =
+        MakeSE3(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitZ())),
+                Eigen::Vector3d(30.0, -40.0, 2.0));
     injected = std::make_unique<InjectedResetOdometrySource>(
         odometry.get(), frames.front().t_ns + static_cast<int64_t>(at_s * 1e9), gap_s, T_new_old);
     MD_LOG(kInfo, "injecting an odometry reset at +" << at_s << " s (gap " << gap_s << " s)");
@@ -189,7 +193,8 @@ int RunPipeline(int argc, char** argv) {
   if (!o.prior.empty()) {
     prior = std::make_unique<FilePriorSource>(o.prior, config.registration.prior_voxel_m);
   } else {
-    prior = std::make_unique<ServerPriorSource>(transport.get(), out + "/prior_cache", config.registration.prior_voxel_m);
+    prior = std::make_unique<ServerPriorSource>(transport.get(), out + "/prior_cache",
+                                                config.registration.prior_voxel_m);
   }
 
   PipelineInputs in;
@@ -235,21 +240,24 @@ int RunPipeline(int argc, char** argv) {
     const EurocSequence seq = ReadEurocSequence(in.sequence_dir);
     const CovarianceCalibration c = CalibrateAgainst(result.registrations, seq.groundtruth);
     if (c.registrations > 0) {
-      std::fprintf(stderr,
-                   "registration covariance vs ground truth (%zu accepted): within 3 sigma %.3f "
-                   "(rx %.2f ry %.2f rz %.2f tx %.2f ty %.2f tz %.2f), mean NEES %.1f (6 if calibrated), "
-                   "rms error / sigma %.2f %.2f %.2f %.2f %.2f %.2f; covariance factor for 97%% within 3 sigma %.2f\n",
-                   c.registrations, c.within_3sigma_all, c.within_3sigma[0], c.within_3sigma[1],
-                   c.within_3sigma[2], c.within_3sigma[3], c.within_3sigma[4], c.within_3sigma[5], c.mean_nees,
-                   c.rms_over_sigma[0], c.rms_over_sigma[1], c.rms_over_sigma[2], c.rms_over_sigma[3],
-                   c.rms_over_sigma[4], c.rms_over_sigma[5], c.scale_for_97);
+      std::fprintf(
+          stderr,
+          "registration covariance vs ground truth (%zu accepted): within 3 sigma %.3f "
+          "(rx %.2f ry %.2f rz %.2f tx %.2f ty %.2f tz %.2f), mean NEES %.1f (6 if calibrated), "
+          "rms error / sigma %.2f %.2f %.2f %.2f %.2f %.2f; covariance factor for 97%% within 3 "
+          "sigma %.2f\n",
+          c.registrations, c.within_3sigma_all, c.within_3sigma[0], c.within_3sigma[1],
+          c.within_3sigma[2], c.within_3sigma[3], c.within_3sigma[4], c.within_3sigma[5],
+          c.mean_nees, c.rms_over_sigma[0], c.rms_over_sigma[1], c.rms_over_sigma[2],
+          c.rms_over_sigma[3], c.rms_over_sigma[4], c.rms_over_sigma[5], c.scale_for_97);
     }
   }
 
   if (upload_thread.joinable()) {
     queue->Seal();
     const double wait_s = o.upload_wait_s;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
     ProgressLine progress;
     while (!upload_finished && std::chrono::steady_clock::now() < deadline) {
       progress.Update("upload: " + std::to_string(queue->PendingCount()) + " keyframes pending");
@@ -259,12 +267,15 @@ int RunPipeline(int argc, char** argv) {
     upload_thread.join();
     progress.Finish();
     if (!upload_report.committed) {
-      std::fprintf(stderr, "upload not finished (%s): resume with 'mapdelta-client upload %s/keyframes --server URL --token T'\n",
-                   upload_report.fatal.empty() ? "timed out" : upload_report.fatal.c_str(), out.c_str());
+      std::fprintf(stderr,
+                   "upload not finished (%s): resume with 'mapdelta-client upload %s/keyframes "
+                   "--server URL --token T'\n",
+                   upload_report.fatal.empty() ? "timed out" : upload_report.fatal.c_str(),
+                   out.c_str());
       return 3;
     }
-    std::fprintf(stderr, "upload: session %s committed (%zu keyframes)\n", upload_report.session_id.c_str(),
-                 upload_report.uploaded);
+    std::fprintf(stderr, "upload: session %s committed (%zu keyframes)\n",
+                 upload_report.session_id.c_str(), upload_report.uploaded);
   }
   return 0;
 }

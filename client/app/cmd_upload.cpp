@@ -60,8 +60,8 @@ int RunUpload(int argc, char** argv) {
     }
     queue.Seal();
   }
-  std::fprintf(stderr, "upload: %zu keyframes in %s, %zu pending\n", folder.keyframes.size(), dir.c_str(),
-               queue.PendingCount());
+  std::fprintf(stderr, "upload: %zu keyframes in %s, %zu pending\n", folder.keyframes.size(),
+               dir.c_str(), queue.PendingCount());
   std::atomic<bool> stop{false}, finished{false};
   UploadReport report;
   std::thread runner([&] {
@@ -88,7 +88,8 @@ int RunUpload(int argc, char** argv) {
         report.fatal.c_str(), queue.PendingCount(), dir.c_str());
     return cli::kExitFailure;
   }
-  std::fprintf(stderr, "upload: session %s committed, %zu keyframes sent, %zu retries, %zu conflicts\n",
+  std::fprintf(stderr,
+               "upload: session %s committed, %zu keyframes sent, %zu retries, %zu conflicts\n",
                report.session_id.c_str(), report.uploaded, report.retries, report.conflicts);
   return cli::kExitOk;
 }

@@ -26,13 +26,16 @@ class HttplibTransport : public HttpTransport {
  public:
   HttplibTransport(const std::string& base_url, const std::string& token, double timeout_s)
       : client_(base_url), headers_{{"Authorization", "Bearer " + token}} {
-    if (!client_.is_valid()) throw Error(ErrorCode::kInvalidArgument, "bad server URL '" + base_url + "'");
+    if (!client_.is_valid())
+      throw Error(ErrorCode::kInvalidArgument, "bad server URL '" + base_url + "'");
     const auto timeout = std::chrono::milliseconds(static_cast<int64_t>(timeout_s * 1000));
     client_.set_connection_timeout(timeout);
     client_.set_read_timeout(timeout);
     client_.set_write_timeout(timeout);
   }
-  HttpResponse Get(const std::string& path) override { return Convert(client_.Get(path, headers_)); }
+  HttpResponse Get(const std::string& path) override {
+    return Convert(client_.Get(path, headers_));
+  }
   HttpResponse PostJson(const std::string& path, const std::string& json) override {
     return Convert(client_.Post(path, headers_, json, "application/json"));
   }

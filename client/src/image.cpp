@@ -64,8 +64,8 @@ DisparityImage ReadDisparityPfm(const std::string& path) {
   double scale = 0;
   in >> magic >> d.width >> d.height >> scale;
   in.get();
-  if (!in || magic != "Pf" || d.width <= 0 || d.height <= 0 || scale >= 0 ||
-      d.width > 100000 || d.height > 100000) {
+  if (!in || magic != "Pf" || d.width <= 0 || d.height <= 0 || scale >= 0 || d.width > 100000 ||
+      d.height > 100000) {
     throw Error(ErrorCode::kParse, path + ": expected a little-endian single-channel PFM ('Pf')");
   }
   d.disparity_px.resize(static_cast<size_t>(d.width) * d.height);

@@ -17,12 +17,14 @@ Trajectory AddDrift(const Trajectory& gt, const DriftParams& p) {
     SE3 step = gt[k - 1].T.inverse() * gt[k].T;
     const double d = step.translation().norm();
     const double s = std::sqrt(d);
-    const Eigen::Vector3d w(p.rot_noise_deg_per_sqrt_m * s * deg * normal(rng),
-                            (p.pitch_deg_per_m * d + p.rot_noise_deg_per_sqrt_m * s * normal(rng)) * deg,
-                            (p.yaw_deg_per_m * d + p.rot_noise_deg_per_sqrt_m * s * normal(rng)) * deg);
+    const Eigen::Vector3d w(
+        p.rot_noise_deg_per_sqrt_m * s * deg * normal(rng),
+        (p.pitch_deg_per_m * d + p.rot_noise_deg_per_sqrt_m * s * normal(rng)) * deg,
+        (p.yaw_deg_per_m * d + p.rot_noise_deg_per_sqrt_m * s * normal(rng)) * deg);
     step.linear() = step.linear() * ExpSO3(w);
-    step.translation() = step.translation() * (1.0 + p.scale_error) +
-                         p.trans_noise_per_sqrt_m * s * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    step.translation() =
+        step.translation() * (1.0 + p.scale_error) +
+        p.trans_noise_per_sqrt_m * s * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
     T = T * step;
     out.push_back({gt[k].t_ns, T});
   }

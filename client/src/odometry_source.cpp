@@ -15,7 +15,8 @@ TrajectoryOdometrySource::TrajectoryOdometrySource(const std::string& path)
 TrajectoryOdometrySource::TrajectoryOdometrySource(Trajectory trajectory)
     : trajectory_(std::move(trajectory)) {}
 
-std::optional<OdometrySample> TrajectoryOdometrySource::At(int64_t t_ns, const StereoImages* /*images*/) {
+std::optional<OdometrySample> TrajectoryOdometrySource::At(int64_t t_ns,
+                                                           const StereoImages* /*images*/) {
   SE3 T;
   if (!InterpolateAt(trajectory_, t_ns, &T)) return std::nullopt;
   return OdometrySample{T, std::nullopt};
@@ -23,16 +24,22 @@ std::optional<OdometrySample> TrajectoryOdometrySource::At(int64_t t_ns, const S
 
 InjectedResetOdometrySource::InjectedResetOdometrySource(OdometrySource* inner, int64_t reset_t_ns,
                                                          double gap_s, const SE3& T_new_old)
-    : inner_(inner), reset_t_ns_(reset_t_ns),
-      gap_end_t_ns_(reset_t_ns + static_cast<int64_t>(std::llround(gap_s * 1e9))), T_new_old_(T_new_old) {
-  if (inner == nullptr) throw Error(ErrorCode::kInvalidArgument, "InjectedResetOdometrySource: no inner source");
-  if (!(gap_s >= 0)) throw Error(ErrorCode::kInvalidArgument, "InjectedResetOdometrySource: gap_s must be >= 0");
+    : inner_(inner),
+      reset_t_ns_(reset_t_ns),
+      gap_end_t_ns_(reset_t_ns + static_cast<int64_t>(std::llround(gap_s * 1e9))),
+      T_new_old_(T_new_old) {
+  if (inner == nullptr)
+    throw Error(ErrorCode::kInvalidArgument, "InjectedResetOdometrySource: no inner source");
+  if (!(gap_s >= 0))
+    throw Error(ErrorCode::kInvalidArgument, "InjectedResetOdometrySource: gap_s must be >= 0");
   if (!IsValidPose(T_new_old, 1e-6)) {
-    throw Error(ErrorCode::kInvalidArgument, "InjectedResetOdometrySource: T_new_old is not a rigid transform");
+    throw Error(ErrorCode::kInvalidArgument,
+                "InjectedResetOdometrySource: T_new_old is not a rigid transform");
   }
 }
 
-std::optional<OdometrySample> InjectedResetOdometrySource::At(int64_t t_ns, const StereoImages* images) {
+std::optional<OdometrySample> InjectedResetOdometrySource::At(int64_t t_ns,
+                                                              const StereoImages* images) {
   std::optional<OdometrySample> sample = inner_->At(t_ns, images);
   if (!sample || t_ns < reset_t_ns_) return sample;
   if (t_ns < gap_end_t_ns_) return std::nullopt;
@@ -43,7 +50,8 @@ std::optional<OdometrySample> InjectedResetOdometrySource::At(int64_t t_ns, cons
 }
 
 bool InjectedResetOdometrySource::GravityAligned() const {
-  return inner_->GravityAligned() && (T_new_old_.linear() * Eigen::Vector3d::UnitZ()).z() > 1.0 - 1e-9;
+  return inner_->GravityAligned() &&
+         (T_new_old_.linear() * Eigen::Vector3d::UnitZ()).z() > 1.0 - 1e-9;
 }
 
 }  // namespace mapdelta::client

@@ -24,7 +24,7 @@ namespace {
 
 constexpr size_t kDecodedQueueCapacity = 4;  // ~0.7 MB per 800x450 stereo pair
 constexpr size_t kKeyframeQueueCapacity = 4;
-constexpr size_t kDepthQueueCapacity = 4;    // ~1.4 MB per 800x450 depth image
+constexpr size_t kDepthQueueCapacity = 4;  // ~1.4 MB per 800x450 depth image
 constexpr size_t kOutputQueueCapacity = 16;
 
 struct DecodedFrame {
@@ -79,8 +79,13 @@ class Backend {
   Backend(const ClientConfig& config, const PipelineInputs& in, const StereoRig& rig,
           const SE3& initial_guess, StageTimer* timer, BoundedQueue<FinalKeyframe>* out,
           PipelineResult* result)
-      : config_(config), rig_(rig), timer_(timer), out_(out), result_(result),
-        fusion_(config.fusion), gravity_aligned_odometry_(in.odometry->GravityAligned()) {
+      : config_(config),
+        rig_(rig),
+        timer_(timer),
+        out_(out),
+        result_(result),
+        fusion_(config.fusion),
+        gravity_aligned_odometry_(in.odometry->GravityAligned()) {
     Matrix6 init_cov = Matrix6::Zero();
     init_cov.diagonal() << Eigen::Vector3d::Constant(std::pow(config.fusion.init_sigma_rot_rad, 2)),
         Eigen::Vector3d::Constant(std::pow(config.fusion.init_sigma_trans_m, 2));
@@ -100,8 +105,8 @@ class Backend {
     std::vector<std::optional<Matrix6>> covariances;
     {
       StageTimer::Scope t(timer_, "5 fusion (final pass)");
-      const FusionSummary s = fusion_.Optimize(config_.fusion.final_iterations,
-                                               Range(first_unemitted_, fusion_.size()), &covariances);
+      const FusionSummary s = fusion_.Optimize(
+          config_.fusion.final_iterations, Range(first_unemitted_, fusion_.size()), &covariances);
       MD_LOG(kInfo, "fusion final pass: " << s.iterations << " iterations, cost " << s.initial_cost
                                           << " -> " << s.final_cost << ", " << s.seconds << " s");
     }
@@ -111,8 +116,9 @@ class Backend {
       if (Placed(k)) result_->fused_T_map_body.push_back({fusion_.t_ns(k), fusion_.FusedPose(k)});
     }
     if (result_->keyframes_unplaced > 0) {
-      MD_LOG(kWarn, result_->keyframes_unplaced << " keyframes after odometry resets were never "
-                                                   "re-anchored by a registration: not written or uploaded");
+      MD_LOG(kWarn, result_->keyframes_unplaced
+                        << " keyframes after odometry resets were never "
+                           "re-anchored by a registration: not written or uploaded");
     }
   }
 
@@ -141,14 +147,15 @@ class Backend {
       }
     }
     const KeyframeDepth& kf = raw_[i];
-    const size_t k = fusion_.AddKeyframe(kf.t_ns, kf.odom.T_odom_body, kf.odom.rel_covariance,
-                                         kf.odom.segment);
+    const size_t k =
+        fusion_.AddKeyframe(kf.t_ns, kf.odom.T_odom_body, kf.odom.rel_covariance, kf.odom.segment);
     if (k > 0 && fusion_.SegmentOf(k) != fusion_.SegmentOf(k - 1)) {
       ++result_->odometry_resets;
       since_cloud_ = 0;  // local clouds never mix segments
-      MD_LOG(kWarn, "odometry segment " << kf.odom.segment << " starts at keyframe " << k
-                                        << ": odometry chain broken, predicted at constant velocity "
-                                           "until a registration re-anchors it");
+      MD_LOG(kWarn, "odometry segment "
+                        << kf.odom.segment << " starts at keyframe " << k
+                        << ": odometry chain broken, predicted at constant velocity "
+                           "until a registration re-anchors it");
     }
     filtered_.push_back(std::move(filtered));
     registration_depth_.push_back(std::move(for_registration));
@@ -186,13 +193,15 @@ class Backend {
     // A segment after an odometry reset is placed only by a constant-velocity guess: its first
     // local cloud is re-localized coarse-to-fine, as at start-up, with the wider limits.
     const bool reanchor = started_ && !fusion_.SegmentAnchored(k);
-    const bool relocalize = started_ && (reanchor || rejected_in_row_ >= rc.relocalize_after_rejections);
+    const bool relocalize =
+        started_ && (reanchor || rejected_in_row_ >= rc.relocalize_after_rejections);
     {
       StageTimer::Scope t(timer_, "4 registration");
       const SE3 guess = fusion_.FusedPose(k);
       // The body's up direction in the odometry frame: z up there when the source is a VIO.
       std::optional<Eigen::Vector3d> up;
-      if (gravity_aligned_odometry_) up = fusion_.OdometryPose(k).linear().transpose() * Eigen::Vector3d::UnitZ();
+      if (gravity_aligned_odometry_)
+        up = fusion_.OdometryPose(k).linear().transpose() * Eigen::Vector3d::UnitZ();
       const double reloc_m = rc.relocalize_max_correction_m;
       const double reloc_rad = rc.relocalize_max_correction_deg * M_PI / 180.0;
       if (!started_) {
@@ -207,12 +216,12 @@ class Backend {
         r = registrar_->Register(local, guess, up);
       }
     }
-    const char* mode = !started_  ? " (start-up)"
-                       : reanchor ? " (re-anchoring after an odometry reset)"
+    const char* mode = !started_    ? " (start-up)"
+                       : reanchor   ? " (re-anchoring after an odometry reset)"
                        : relocalize ? " (re-localization)"
                                     : "";
-    result_->registrations.push_back({fusion_.t_ns(k), k, r.accepted, r.reason, r.T_map_body, r.covariance,
-                                      r.fitness_m, r.inlier_fraction});
+    result_->registrations.push_back({fusion_.t_ns(k), k, r.accepted, r.reason, r.T_map_body,
+                                      r.covariance, r.fitness_m, r.inlier_fraction});
     if (!r.accepted) {
       ++result_->registrations_rejected;
       ++rejected_in_row_;
@@ -228,9 +237,9 @@ class Backend {
       result_->startup_refined = true;
     } else if (reanchor) {
       ++result_->segments_reanchored;
-      MD_LOG(kInfo, "odometry segment re-anchored at keyframe " << k << " at ("
-                                                              << r.T_map_body.translation().transpose() << "), "
-                                                              << r.reason);
+      MD_LOG(kInfo, "odometry segment re-anchored at keyframe "
+                        << k << " at (" << r.T_map_body.translation().transpose() << "), "
+                        << r.reason);
     } else if (relocalize) {
       MD_LOG(kInfo, "re-localized at keyframe " << k << " by " << r.correction_m << " m, "
                                                 << r.correction_rad * 180.0 / M_PI << " deg");
@@ -241,11 +250,13 @@ class Backend {
     const long lag = config_.fusion.final_lag_keyframes;
     const long limit = std::min<long>(fusion_.LastRegisteredKeyframe() + 1,
                                       static_cast<long>(fusion_.size()) - lag);
-    const size_t end = limit > static_cast<long>(first_unemitted_) ? static_cast<size_t>(limit) : first_unemitted_;
+    const size_t end =
+        limit > static_cast<long>(first_unemitted_) ? static_cast<size_t>(limit) : first_unemitted_;
     std::vector<std::optional<Matrix6>> covariances;
     {
       StageTimer::Scope t(timer_, "5 fusion (incremental)");
-      fusion_.Optimize(config_.fusion.incremental_iterations, Range(first_unemitted_, end), &covariances);
+      fusion_.Optimize(config_.fusion.incremental_iterations, Range(first_unemitted_, end),
+                       &covariances);
     }
     EmitFinal(end, covariances);
   }
@@ -261,7 +272,8 @@ class Backend {
     const int n = config_.registration.reanchor_yaw_hypotheses;
     std::vector<SE3> guesses;
     for (int i = 0; i < n; ++i) {
-      const Eigen::Matrix3d yaw = Eigen::AngleAxisd(2.0 * M_PI * i / n, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      const Eigen::Matrix3d yaw =
+          Eigen::AngleAxisd(2.0 * M_PI * i / n, Eigen::Vector3d::UnitZ()).toRotationMatrix();
       for (const SE3& start : starts) {
         SE3 turned = start;
         turned.linear() = yaw * start.linear();
@@ -326,16 +338,16 @@ class Backend {
   PipelineResult* result_;
   PoseFusion fusion_;
   std::optional<PriorRegistrar> registrar_;
-  std::deque<KeyframeDepth> raw_;   // unfiltered keyframes still needed by the filter window
-  size_t filtered_in_window_ = 0;   // how many of raw_ are filtered already
-  std::deque<DepthImage> filtered_; // filtered depth of keyframes not yet emitted
+  std::deque<KeyframeDepth> raw_;    // unfiltered keyframes still needed by the filter window
+  size_t filtered_in_window_ = 0;    // how many of raw_ are filtered already
+  std::deque<DepthImage> filtered_;  // filtered depth of keyframes not yet emitted
   // The same keyframes filtered with registration_alpha (empty when it equals alpha).
   std::deque<std::optional<DepthImage>> registration_depth_;
   size_t first_unemitted_ = 0;
   const bool gravity_aligned_odometry_;  // registrations are checked against its gravity
-  bool started_ = false;            // start-up refinement accepted
+  bool started_ = false;                 // start-up refinement accepted
   int rejected_in_row_ = 0;
-  size_t since_cloud_ = 0;          // keyframes of the current segment since the last local cloud
+  size_t since_cloud_ = 0;  // keyframes of the current segment since the last local cloud
 };
 
 }  // namespace
@@ -345,14 +357,16 @@ PinholeCamera KeyframeCamera(const ClientConfig& config, const PinholeCamera& le
 }
 
 PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in) {
-  if (in.odometry == nullptr) throw Error(ErrorCode::kInvalidArgument, "pipeline needs an odometry source");
+  if (in.odometry == nullptr)
+    throw Error(ErrorCode::kInvalidArgument, "pipeline needs an odometry source");
   const auto wall_start = std::chrono::steady_clock::now();
   // Rectified once on input (distorted EuRoC pairs) for every stage below.
   const StereoInput input(ReadEurocSequence(in.sequence_dir));
   const EurocSequence& seq = input.sequence();
   const StereoRig& rig = input.rig();
   auto frames = seq.StereoFrames();
-  if (in.max_frames > 0 && frames.size() > static_cast<size_t>(in.max_frames)) frames.resize(in.max_frames);
+  if (in.max_frames > 0 && frames.size() > static_cast<size_t>(in.max_frames))
+    frames.resize(in.max_frames);
   if (frames.empty()) throw Error(ErrorCode::kNotFound, in.sequence_dir + ": no stereo frames");
 
   PipelineResult result;
@@ -408,14 +422,16 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
         {
           StageTimer::Scope t(&timer, "0 odometry");
           const std::optional<StereoImages> images =
-              decoded ? std::optional<StereoImages>(StereoImages{decoded->left, decoded->right}) : std::nullopt;
+              decoded ? std::optional<StereoImages>(StereoImages{decoded->left, decoded->right})
+                      : std::nullopt;
           odom = in.odometry->At(frame.t_ns, images ? &*images : nullptr);
         }
         if (!odom) continue;
         // A new odometry segment (reset) always starts with a keyframe: its poses are not
         // comparable with the previous keyframe's.
         if (last && odom->segment == last_segment &&
-            !IsNewKeyframe(last->second, last->first, odom->T_odom_body, frame.t_ns, config.keyframes)) {
+            !IsNewKeyframe(last->second, last->first, odom->T_odom_body, frame.t_ns,
+                           config.keyframes)) {
           continue;
         }
         last = {frame.t_ns, odom->T_odom_body};
@@ -465,7 +481,8 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
       while (auto f = output_queue.Pop()) {
         StageTimer::Scope t(&timer, "6 output + upload queue");
         f->keyframe.depth = CropLeftBand(f->keyframe.depth, band);
-        if (!in.keyframe_dir.empty()) AppendKeyframe(in.keyframe_dir, out_camera, config.upload.depth_scale, f->keyframe);
+        if (!in.keyframe_dir.empty())
+          AppendKeyframe(in.keyframe_dir, out_camera, config.upload.depth_scale, f->keyframe);
         if (in.uploader != nullptr) in.uploader->Enqueue(f->keyframe);
       }
     } catch (...) {
@@ -483,7 +500,8 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
         if (in.initial_T_map_body) {
           guess = *in.initial_T_map_body;
         } else if (!seq.groundtruth.empty() && InterpolateAt(seq.groundtruth, kf->t_ns, &guess)) {
-          MD_LOG(kWarn, "no initial pose given: using the sequence's ground truth at the first keyframe");
+          MD_LOG(kWarn,
+                 "no initial pose given: using the sequence's ground truth at the first keyframe");
         } else {
           throw Error(ErrorCode::kInvalidArgument,
                       "no initial pose given and the sequence has no ground truth to take it from");
@@ -509,7 +527,8 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
   result.frames = frames_done;
   result.keyframes = keyframes;
   result.timing = timer.Summary();
-  result.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  result.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
 }
 

@@ -107,8 +107,8 @@ Matrix6 DiagonalCovariance(double sigma_rot, double sigma_trans) {
 
 void CheckCovariance(const Matrix6& c, const char* what) {
   if (!c.allFinite() || !c.isApprox(c.transpose(), 1e-6)) {
-    throw Error(ErrorCode::kInvalidArgument, std::string("fusion: ") + what +
-                                                 " covariance must be finite and symmetric");
+    throw Error(ErrorCode::kInvalidArgument,
+                std::string("fusion: ") + what + " covariance must be finite and symmetric");
   }
 }
 
@@ -135,8 +135,10 @@ void PoseFusion::SetState(KeyframeState* s, const SE3& T) const {
 }
 
 void PoseFusion::SetInitialPose(const SE3& T_map_body, const Matrix6& covariance) {
-  if (!keyframes_.empty()) throw Error(ErrorCode::kConflict, "fusion: initial pose after keyframes");
-  if (!IsValidPose(T_map_body, 1e-6)) throw Error(ErrorCode::kInvalidArgument, "fusion: bad initial pose");
+  if (!keyframes_.empty())
+    throw Error(ErrorCode::kConflict, "fusion: initial pose after keyframes");
+  if (!IsValidPose(T_map_body, 1e-6))
+    throw Error(ErrorCode::kInvalidArgument, "fusion: bad initial pose");
   SqrtInformation(covariance);  // validates
   T_map_body0_ = T_map_body;
   initial_covariance_ = covariance;
@@ -146,7 +148,8 @@ void PoseFusion::SetInitialPose(const SE3& T_map_body, const Matrix6& covariance
 size_t PoseFusion::AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
                                const std::optional<Matrix6>& rel_covariance, int segment) {
   if (!IsValidPose(T_odom_body, 1e-6)) {
-    throw Error(ErrorCode::kInvalidArgument, "fusion: odometry pose is not a valid rigid transform");
+    throw Error(ErrorCode::kInvalidArgument,
+                "fusion: odometry pose is not a valid rigid transform");
   }
   if (rel_covariance) SqrtInformation(*rel_covariance);
   if (!keyframes_.empty() && t_ns <= keyframes_.back().t_ns) {
@@ -159,7 +162,8 @@ size_t PoseFusion::AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
   s.segment = segment;
   if (keyframes_.empty()) {
     if (!has_initial_) {
-      throw Error(ErrorCode::kConflict, "fusion: SetInitialPose must come before the first keyframe");
+      throw Error(ErrorCode::kConflict,
+                  "fusion: SetInitialPose must come before the first keyframe");
     }
     SetState(&s, T_map_body0_);
     segments_.push_back({segment, 0, T_map_body0_, initial_covariance_, false});
@@ -207,8 +211,10 @@ size_t PoseFusion::SegmentIndex(size_t k) const {
 bool PoseFusion::SegmentAnchored(size_t k) const { return segments_[SegmentIndex(k)].anchored; }
 
 void PoseFusion::AddRegistration(size_t k, const SE3& T_map_body, const Matrix6& covariance) {
-  if (k >= keyframes_.size()) throw Error(ErrorCode::kInvalidArgument, "fusion: registration of unknown keyframe");
-  if (!IsValidPose(T_map_body, 1e-6)) throw Error(ErrorCode::kInvalidArgument, "fusion: bad registration pose");
+  if (k >= keyframes_.size())
+    throw Error(ErrorCode::kInvalidArgument, "fusion: registration of unknown keyframe");
+  if (!IsValidPose(T_map_body, 1e-6))
+    throw Error(ErrorCode::kInvalidArgument, "fusion: bad registration pose");
   SqrtInformation(covariance);
   Segment& segment = segments_[SegmentIndex(k)];
   registrations_.push_back({k, T_map_body, covariance, !segment.anchored});
@@ -216,7 +222,8 @@ void PoseFusion::AddRegistration(size_t k, const SE3& T_map_body, const Matrix6&
     // Re-anchoring: the constant-velocity guess may be far off (even in heading); start the
     // solver from the registration carried along the segment's odometry.
     const SE3 T_map_odom = T_map_body * keyframes_[k].T_odom_body.inverse();
-    for (size_t j = segment.first_k; j < keyframes_.size() && keyframes_[j].segment == segment.id; ++j) {
+    for (size_t j = segment.first_k; j < keyframes_.size() && keyframes_[j].segment == segment.id;
+         ++j) {
       SetState(&keyframes_[j], T_map_odom * keyframes_[j].T_odom_body);
     }
   }
@@ -266,9 +273,11 @@ void PoseFusion::ComputeCovariances(ceres::Problem* problem, const std::vector<s
     // rotation vector 2d (map frame); p (+) d = p + d.
     Matrix6 left;
     left.topLeftCorner<3, 3>() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(qq);
-    left.topRightCorner<3, 3>() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(qp);
+    left.topRightCorner<3, 3>() =
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(qp);
     left.bottomLeftCorner<3, 3>() = left.topRightCorner<3, 3>().transpose();
-    left.bottomRightCorner<3, 3>() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pp);
+    left.bottomRightCorner<3, 3>() =
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pp);
     // To our right perturbation (R Exp(w), t + R v): w = R^T (2 d_rot), v = R^T d_pos.
     const Eigen::Matrix3d Rt = FusedPose(which[i]).linear().transpose();
     Matrix6 J = Matrix6::Zero();
@@ -295,8 +304,8 @@ FusionSummary PoseFusion::Optimize(int max_iterations, const std::vector<size_t>
     // cannot know about a stop, reversal or heading change during the gap).
     if (segment.anchored && &segment != &segments_.front()) continue;
     auto* cost = new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost{
-        Eigen::Quaterniond(segment.T_map_body_start.linear()), segment.T_map_body_start.translation(),
-        SqrtInformation(segment.covariance)});
+        Eigen::Quaterniond(segment.T_map_body_start.linear()),
+        segment.T_map_body_start.translation(), SqrtInformation(segment.covariance)});
     auto& s = keyframes_[segment.first_k];
     problem.AddResidualBlock(cost, nullptr, s.q, s.p);
   }
@@ -312,8 +321,9 @@ FusionSummary PoseFusion::Optimize(int max_iterations, const std::vector<size_t>
                             : DiagonalCovariance(config_.odom_sigma_rot_rad,
                                                  config_.odom_sigma_trans_m +
                                                      config_.odom_sigma_trans_per_m * step);
-    auto* cost = new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(
-        new RelativePoseCost{Eigen::Quaterniond(dT.linear()), dT.translation(), SqrtInformation(cov)});
+    auto* cost =
+        new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(new RelativePoseCost{
+            Eigen::Quaterniond(dT.linear()), dT.translation(), SqrtInformation(cov)});
     problem.AddResidualBlock(cost, nullptr, a.q, a.p, b.q, b.p);
   }
   // 3. Registration factors (robust): global position, and rotation relative to the first
@@ -327,8 +337,9 @@ FusionSummary PoseFusion::Optimize(int max_iterations, const std::vector<size_t>
     const Eigen::Matrix3d R = reg.T_map_body.linear();
     if (reg.segment_first) {
       problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost{
-              Eigen::Quaterniond(R), reg.T_map_body.translation(), SqrtInformation(reg.covariance)}),
+          new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(
+              new PosePriorCost{Eigen::Quaterniond(R), reg.T_map_body.translation(),
+                                SqrtInformation(reg.covariance)}),
           new ceres::HuberLoss(config_.huber_delta), s.q, s.p);
       continue;
     }
@@ -341,8 +352,9 @@ FusionSummary PoseFusion::Optimize(int max_iterations, const std::vector<size_t>
     if (reg.k == anchor->k) continue;
     const Eigen::Matrix3d R_rel = anchor->T_map_body.linear().transpose() * R;
     // z = R_a^T R_k: a right perturbation w_a of R_a moves z by -R_rel^T w_a.
-    const Eigen::Matrix3d cov_r = R_rel.transpose() * anchor->covariance.topLeftCorner<3, 3>() * R_rel +
-                                  reg.covariance.topLeftCorner<3, 3>();
+    const Eigen::Matrix3d cov_r =
+        R_rel.transpose() * anchor->covariance.topLeftCorner<3, 3>() * R_rel +
+        reg.covariance.topLeftCorner<3, 3>();
     auto& a = keyframes_[anchor->k];
     problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<RelativeRotationCost, 3, 4, 4>(

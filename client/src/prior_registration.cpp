@@ -1,8 +1,8 @@
 #include "mapdelta/client/prior_registration.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <algorithm>
 #include <map>
 #include <optional>
 
@@ -84,7 +84,8 @@ struct PriorRegistrar::Impl {
       if (coarse.converged || coarse.iterations > 0) init = coarse.T_target_source;
     }
     // 2. Fine pass with the production radius; its Hessian gives the covariance.
-    const RegistrationResult result = AlignGicp(*tgt, local, init, Params(config.max_correspondence_m));
+    const RegistrationResult result =
+        AlignGicp(*tgt, local, init, Params(config.max_correspondence_m));
     const GateDecision decision = CheckRegistration(result, guess, gate);
     out.accepted = decision.accepted;
     out.reason = decision.reason;
@@ -93,7 +94,8 @@ struct PriorRegistrar::Impl {
     out.fitness_m = result.fitness_m;
     out.inlier_fraction = result.num_source_points == 0
                               ? 0.0
-                              : static_cast<double>(result.num_inliers) / static_cast<double>(result.num_source_points);
+                              : static_cast<double>(result.num_inliers) /
+                                    static_cast<double>(result.num_source_points);
     out.correction_m = decision.correction_m;
     out.correction_rad = decision.correction_rad;
     out.iterations = result.iterations;
@@ -102,7 +104,8 @@ struct PriorRegistrar::Impl {
   }
 };
 
-PriorRegistrar::PriorRegistrar(const RegistrationConfig& config, PriorSource* prior, int num_threads)
+PriorRegistrar::PriorRegistrar(const RegistrationConfig& config, PriorSource* prior,
+                               int num_threads)
     : impl_(std::make_unique<Impl>()) {
   impl_->config = config;
   impl_->prior = prior;
@@ -118,10 +121,9 @@ RegistrationOutcome PriorRegistrar::Register(const PointCloud& local_body, const
   return impl_->Run(local_body, guess, 0.0, gate);
 }
 
-RegistrationOutcome PriorRegistrar::RefineInitialPose(const PointCloud& local_body, const SE3& guess,
-                                                      double max_guess_error_m,
-                                                      double max_guess_error_rad,
-                                                      const std::optional<Eigen::Vector3d>& odometry_up) {
+RegistrationOutcome PriorRegistrar::RefineInitialPose(
+    const PointCloud& local_body, const SE3& guess, double max_guess_error_m,
+    double max_guess_error_rad, const std::optional<Eigen::Vector3d>& odometry_up) {
   RegistrationGate gate = impl_->Gate(odometry_up);
   gate.max_correction_m = max_guess_error_m;
   gate.max_correction_rad = max_guess_error_rad;
@@ -129,22 +131,22 @@ RegistrationOutcome PriorRegistrar::RefineInitialPose(const PointCloud& local_bo
   return impl_->Run(local_body, guess, coarse, gate);
 }
 
-RegistrationOutcome PriorRegistrar::RefineAmongGuesses(const PointCloud& local_body,
-                                                      const std::vector<SE3>& guesses,
-                                                      double max_guess_error_m, double max_guess_error_rad,
-                                                      const std::optional<Eigen::Vector3d>& odometry_up,
-                                                      double ambiguity_ratio) {
+RegistrationOutcome PriorRegistrar::RefineAmongGuesses(
+    const PointCloud& local_body, const std::vector<SE3>& guesses, double max_guess_error_m,
+    double max_guess_error_rad, const std::optional<Eigen::Vector3d>& odometry_up,
+    double ambiguity_ratio) {
   std::vector<std::pair<double, RegistrationOutcome>> accepted;  // (close fraction, outcome)
   RegistrationOutcome first_rejected;
   const double close_radius = 0.5 * impl_->config.max_fitness_m;
   for (const SE3& guess : guesses) {
     RegistrationOutcome r =
         RefineInitialPose(local_body, guess, max_guess_error_m, max_guess_error_rad, odometry_up);
-    const double close = r.accepted ? impl_->CloseFraction(local_body, r.T_map_body, close_radius) : 0.0;
-    MD_LOG(kDebug, "re-anchor hypothesis at (" << guess.translation().transpose() << "): " << r.reason
-                                                << ", within " << close_radius << " m " << close
-                                                << ", fitness " << r.fitness_m << " m, result ("
-                                                << r.T_map_body.translation().transpose() << ")");
+    const double close =
+        r.accepted ? impl_->CloseFraction(local_body, r.T_map_body, close_radius) : 0.0;
+    MD_LOG(kDebug, "re-anchor hypothesis at ("
+                       << guess.translation().transpose() << "): " << r.reason << ", within "
+                       << close_radius << " m " << close << ", fitness " << r.fitness_m
+                       << " m, result (" << r.T_map_body.translation().transpose() << ")");
     if (r.accepted) {
       accepted.emplace_back(close, std::move(r));
     } else if (first_rejected.reason.empty()) {
@@ -152,27 +154,30 @@ RegistrationOutcome PriorRegistrar::RefineAmongGuesses(const PointCloud& local_b
     }
   }
   if (accepted.empty()) {
-    first_rejected.reason = "none of " + std::to_string(guesses.size()) + " guesses accepted (first: " +
-                            first_rejected.reason + ")";
+    first_rejected.reason = "none of " + std::to_string(guesses.size()) +
+                            " guesses accepted (first: " + first_rejected.reason + ")";
     return first_rejected;
   }
-  std::sort(accepted.begin(), accepted.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::sort(accepted.begin(), accepted.end(),
+            [](const auto& a, const auto& b) { return a.first > b.first; });
   const double best_close = accepted.front().first;
   RegistrationOutcome best = accepted.front().second;
   for (size_t i = 1; i < accepted.size(); ++i) {
     const auto& [close, other] = accepted[i];
-    const bool elsewhere = (other.T_map_body.translation() - best.T_map_body.translation()).norm() > 1.0 ||
-                           RotationAngle(other.T_map_body, best.T_map_body) > 5.0 * M_PI / 180.0;
+    const bool elsewhere =
+        (other.T_map_body.translation() - best.T_map_body.translation()).norm() > 1.0 ||
+        RotationAngle(other.T_map_body, best.T_map_body) > 5.0 * M_PI / 180.0;
     if (elsewhere && close >= ambiguity_ratio * best_close) {
       best.accepted = false;
       best.reason = "ambiguous: two of " + std::to_string(guesses.size()) +
-                    " guesses converged to different poses with " + std::to_string(best_close) + " and " +
-                    std::to_string(close) + " of the points within " + std::to_string(close_radius) + " m";
+                    " guesses converged to different poses with " + std::to_string(best_close) +
+                    " and " + std::to_string(close) + " of the points within " +
+                    std::to_string(close_radius) + " m";
       return best;
     }
   }
-  best.reason = "accepted (" + std::to_string(accepted.size()) + " of " + std::to_string(guesses.size()) +
-                " guesses)";
+  best.reason = "accepted (" + std::to_string(accepted.size()) + " of " +
+                std::to_string(guesses.size()) + " guesses)";
   return best;
 }
 

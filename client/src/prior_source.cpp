@@ -35,18 +35,22 @@ FilePriorSource::FilePriorSource(const std::string& path, double voxel_m, double
   cloud_ = ReadCloud(path);
   RemoveNonFinite(&cloud_);
   if (voxel_m > 0) cloud_ = VoxelDownsample(cloud_, static_cast<float>(voxel_m));
-  if (cloud_.empty()) throw Error(ErrorCode::kInvalidArgument, path + ": prior cloud has no points");
+  if (cloud_.empty())
+    throw Error(ErrorCode::kInvalidArgument, path + ": prior cloud has no points");
   MD_LOG(kInfo, "prior: " << cloud_.size() << " points from " << path);
 }
 
-PointCloud FilePriorSource::CloudAround(double x, double y, double r) { return CropXY(cloud_, x, y, r); }
+PointCloud FilePriorSource::CloudAround(double x, double y, double r) {
+  return CropXY(cloud_, x, y, r);
+}
 
 std::string FilePriorSource::Key(double x, double y, double r) { return KeyOf(grid_, x, y, r); }
 
 ServerPriorSource::ServerPriorSource(HttpTransport* transport, const std::string& cache_dir,
                                      double voxel_m)
     : transport_(transport), cache_dir_(cache_dir), voxel_m_(voxel_m) {
-  if (transport_ == nullptr) throw Error(ErrorCode::kInvalidArgument, "prior source needs a transport");
+  if (transport_ == nullptr)
+    throw Error(ErrorCode::kInvalidArgument, "prior source needs a transport");
   std::error_code ec;
   fs::create_directories(cache_dir_, ec);
   if (ec) throw Error(ErrorCode::kIo, cache_dir_ + ": cannot create prior cache: " + ec.message());
@@ -62,8 +66,9 @@ ServerPriorSource::Listing ServerPriorSource::List(double x, double y, double r)
   path << "/v1/prior/tiles?x=" << x << "&y=" << y << "&radius=" << r;
   const HttpResponse res = transport_->Get(path.str());
   if (!res.Ok()) {
-    throw Error(ErrorCode::kIo, "prior: GET " + path.str() + " failed: " +
-                                    (res.status ? "HTTP " + std::to_string(res.status) : res.error));
+    throw Error(ErrorCode::kIo,
+                "prior: GET " + path.str() +
+                    " failed: " + (res.status ? "HTTP " + std::to_string(res.status) : res.error));
   }
   Listing listing;
   try {
@@ -82,16 +87,19 @@ ServerPriorSource::Listing ServerPriorSource::List(double x, double y, double r)
 
 const PointCloud& ServerPriorSource::Tile(int64_t version, const std::string& tile,
                                           const std::string& url) {
-  if (!TileId::FromString(tile)) throw Error(ErrorCode::kParse, "prior: bad tile id '" + tile + "'");
+  if (!TileId::FromString(tile))
+    throw Error(ErrorCode::kParse, "prior: bad tile id '" + tile + "'");
   const std::string key = std::to_string(version) + "/" + tile;
   if (const auto it = memory_.find(key); it != memory_.end()) return it->second;
   const fs::path dir = fs::path(cache_dir_) / ("v" + std::to_string(version));
   const fs::path file = dir / (tile + ".pcd");
   if (!fs::exists(file)) {
-    const HttpResponse res = transport_->Get(url + (url.find('?') == std::string::npos ? "?" : "&") + "format=pcd");
+    const HttpResponse res =
+        transport_->Get(url + (url.find('?') == std::string::npos ? "?" : "&") + "format=pcd");
     if (!res.Ok()) {
-      throw Error(ErrorCode::kIo, "prior: GET " + url + " failed: " +
-                                      (res.status ? "HTTP " + std::to_string(res.status) : res.error));
+      throw Error(ErrorCode::kIo,
+                  "prior: GET " + url + " failed: " +
+                      (res.status ? "HTTP " + std::to_string(res.status) : res.error));
     }
     fs::create_directories(dir);
     // Download to a temporary name first: a crash never leaves a truncated tile in the cache.

@@ -11,7 +11,8 @@
 
 namespace mapdelta::client {
 
-CovarianceCalibration CalibrateAgainst(const std::vector<RegistrationRecord>& records, const Trajectory& gt) {
+CovarianceCalibration CalibrateAgainst(const std::vector<RegistrationRecord>& records,
+                                       const Trajectory& gt) {
   CovarianceCalibration c;
   double sum_e2[6] = {}, sum_var[6] = {};
   size_t within[6] = {};
@@ -44,12 +45,14 @@ CovarianceCalibration CalibrateAgainst(const std::vector<RegistrationRecord>& re
   c.within_3sigma_all = all / (6.0 * n);
   c.mean_nees = nees / n;
   std::sort(normalized.begin(), normalized.end());
-  const double q97 = normalized[std::min(normalized.size() - 1, static_cast<size_t>(0.97 * normalized.size()))];
+  const double q97 =
+      normalized[std::min(normalized.size() - 1, static_cast<size_t>(0.97 * normalized.size()))];
   c.scale_for_97 = (q97 / 3.0) * (q97 / 3.0);
   return c;
 }
 
-void WriteRegistrationsCsv(const std::string& path, const std::vector<RegistrationRecord>& records) {
+void WriteRegistrationsCsv(const std::string& path,
+                           const std::vector<RegistrationRecord>& records) {
   std::ofstream out(path);
   if (!out) throw Error(ErrorCode::kIo, path + ": cannot write");
   out << "t_ns,keyframe,accepted,fitness_m,inlier_fraction,x,y,z,qx,qy,qz,qw,"
@@ -59,8 +62,8 @@ void WriteRegistrationsCsv(const std::string& path, const std::vector<Registrati
     const Eigen::Quaterniond q(r.T_map_body.linear());
     const Eigen::Vector3d& p = r.T_map_body.translation();
     out << r.t_ns << ',' << r.keyframe << ',' << (r.accepted ? 1 : 0) << ',' << r.fitness_m << ','
-        << r.inlier_fraction << ',' << p.x() << ',' << p.y() << ',' << p.z() << ',' << q.x() << ',' << q.y()
-        << ',' << q.z() << ',' << q.w();
+        << r.inlier_fraction << ',' << p.x() << ',' << p.y() << ',' << p.z() << ',' << q.x() << ','
+        << q.y() << ',' << q.z() << ',' << q.w();
     for (int i = 0; i < 6; ++i) out << ',' << std::sqrt(std::max(0.0, r.covariance(i, i)));
     std::string reason = r.reason;
     for (char& ch : reason) {

@@ -17,8 +17,10 @@ class StageTimer {
     Scope(StageTimer* timer, std::string stage)
         : timer_(timer), stage_(std::move(stage)), start_(std::chrono::steady_clock::now()) {}
     ~Scope() {
-      timer_->Add(stage_, std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
+      timer_->Add(stage_,
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
     }
+
    private:
     StageTimer* timer_;
     std::string stage_;
@@ -37,6 +39,7 @@ class StageTimer {
     for (const auto& [name, t] : stages_) out.push_back(t);
     return out;
   }
+
  private:
   mutable std::mutex mutex_;
   std::map<std::string, StageTiming> stages_;

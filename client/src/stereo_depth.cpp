@@ -51,7 +51,8 @@ namespace {
 void CheckBand(int band, int width) {
   if (band < 0 || band >= width) {
     throw Error(ErrorCode::kInvalidArgument, "stereo: crop band " + std::to_string(band) +
-                                                 " px is outside [0, width " + std::to_string(width) + ")");
+                                                 " px is outside [0, width " +
+                                                 std::to_string(width) + ")");
   }
 }
 }  // namespace
@@ -69,7 +70,8 @@ DepthImage CropLeftBand(const DepthImage& depth, int band) {
   DepthImage out(depth.width - band, depth.height);
   for (int v = 0; v < depth.height; ++v) {
     const auto row = depth.depth_m.begin() + static_cast<ptrdiff_t>(v) * depth.width;
-    std::copy(row + band, row + depth.width, out.depth_m.begin() + static_cast<ptrdiff_t>(v) * out.width);
+    std::copy(row + band, row + depth.width,
+              out.depth_m.begin() + static_cast<ptrdiff_t>(v) * out.width);
   }
   return out;
 }
@@ -87,10 +89,9 @@ DisparityImage StereoDepth::ComputeDisparity(const GrayImage& left, const GrayIm
   const int bs = c.block_size;
   const int num_disp = NumDisparitiesFor(left.width);
   // P1/P2 as OpenCV recommends for one channel: smoothness penalties grow with the block area.
-  auto sgbm = cv::StereoSGBM::create(c.min_disparity, num_disp, bs, 8 * bs * bs, 32 * bs * bs,
-                                     c.disp12_max_diff, c.pre_filter_cap, c.uniqueness_ratio,
-                                     c.speckle_window_size, c.speckle_range,
-                                     cv::StereoSGBM::MODE_SGBM_3WAY);
+  auto sgbm = cv::StereoSGBM::create(
+      c.min_disparity, num_disp, bs, 8 * bs * bs, 32 * bs * bs, c.disp12_max_diff, c.pre_filter_cap,
+      c.uniqueness_ratio, c.speckle_window_size, c.speckle_range, cv::StereoSGBM::MODE_SGBM_3WAY);
   cv::Mat fixed;  // CV_16S, disparity * 16 (4 fractional bits: the subpixel estimate)
   sgbm->compute(AsMat(left), AsMat(right), fixed);
 

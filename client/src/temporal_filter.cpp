@@ -51,7 +51,8 @@ DepthImage TemporalFilter(const std::vector<DepthFrame>& frames, size_t center,
         const float d_here = di.depth_m[k];
         if (!(d_here > 0.f)) continue;
         // 1. Find the pixel of j that sees this pixel's point (nearest pixel).
-        const Eigen::Vector3d p_j = R_ji * (d_here * Eigen::Vector3d(x_of_u[static_cast<size_t>(u)], y, 1.0)) + t_ji;
+        const Eigen::Vector3d p_j =
+            R_ji * (d_here * Eigen::Vector3d(x_of_u[static_cast<size_t>(u)], y, 1.0)) + t_ji;
         if (p_j.z() <= 1e-6) continue;
         const double inv_z = 1.0 / p_j.z();
         const long uj = nearest_pixel(camera.fx * p_j.x() * inv_z + camera.cx);
@@ -60,7 +61,8 @@ DepthImage TemporalFilter(const std::vector<DepthFrame>& frames, size_t center,
         const float zj = dj.at(static_cast<int>(uj), static_cast<int>(vj));
         if (!(zj > 0.f)) continue;
         // 2. Re-project j's depth there into i: the projected depth d_j^i.
-        const Eigen::Vector3d q_j = zj * Eigen::Vector3d(x_of_u[static_cast<size_t>(uj)], y_of_v[static_cast<size_t>(vj)], 1.0);
+        const Eigen::Vector3d q_j = zj * Eigen::Vector3d(x_of_u[static_cast<size_t>(uj)],
+                                                         y_of_v[static_cast<size_t>(vj)], 1.0);
         const double projected = z_row_ij.dot(q_j) + z_t_ij;
         // 3. Success test against the current frame's depth.
         if (std::abs(projected - d_here) >= config.delta_d_m) continue;
@@ -77,7 +79,8 @@ DepthImage TemporalFilter(const std::vector<DepthFrame>& frames, size_t center,
     const float d = di.depth_m[k];
     if (!(d > 0.f)) continue;
     ++in_valid;
-    if (successes[k] >= alpha) out.depth_m[k] = (d + sums[k]) / static_cast<float>(successes[k] + 1);
+    if (successes[k] >= alpha)
+      out.depth_m[k] = (d + sums[k]) / static_cast<float>(successes[k] + 1);
   }
   if (stats != nullptr) {
     stats->input_valid = in_valid;

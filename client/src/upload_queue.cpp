@@ -54,7 +54,8 @@ bool ParseSeq(const fs::path& p, int64_t* seq) {
 UploadQueue::UploadQueue(const std::string& dir) : dir_(dir) {
   std::error_code ec;
   fs::create_directories(fs::path(dir_) / "pending", ec);
-  if (ec) throw Error(ErrorCode::kIo, dir_ + ": cannot create upload queue folder: " + ec.message());
+  if (ec)
+    throw Error(ErrorCode::kIo, dir_ + ": cannot create upload queue folder: " + ec.message());
   const std::string state_path = (fs::path(dir_) / "state.json").string();
   if (fs::exists(state_path)) {
     try {
@@ -96,7 +97,8 @@ std::string UploadQueue::ItemPath(int64_t seq, const char* ext) const {
 
 void UploadQueue::SaveStateLocked() const {
   nlohmann::json j;
-  j["session_id"] = state_.session_id ? nlohmann::json::parse(*state_.session_id) : nlohmann::json();
+  j["session_id"] =
+      state_.session_id ? nlohmann::json::parse(*state_.session_id) : nlohmann::json();
   j["sealed"] = state_.sealed;
   j["committed"] = state_.committed;
   j["next_seq"] = state_.next_seq;
@@ -145,7 +147,8 @@ void UploadQueue::MarkDone(int64_t seq) {
 size_t UploadQueue::PendingCount() const {
   std::lock_guard lock(mutex_);
   size_t n = 0;
-  for (int64_t seq = state_.done_seq; seq < state_.next_seq; ++seq) n += fs::exists(ItemPath(seq, ".json"));
+  for (int64_t seq = state_.done_seq; seq < state_.next_seq; ++seq)
+    n += fs::exists(ItemPath(seq, ".json"));
   return n;
 }
 

@@ -106,9 +106,13 @@ UploadReport Uploader::Run(const std::atomic<bool>& stop) {
     // 1. A session, created once and remembered on disk.
     if (!state.session_id) {
       const Json body = {{"vehicle_id", config_.vehicle_id},
-                         {"camera", {{"width", camera_.width}, {"height", camera_.height},
-                                     {"fx", camera_.fx}, {"fy", camera_.fy},
-                                     {"cx", camera_.cx}, {"cy", camera_.cy}}},
+                         {"camera",
+                          {{"width", camera_.width},
+                           {"height", camera_.height},
+                           {"fx", camera_.fx},
+                           {"fy", camera_.fy},
+                           {"cx", camera_.cx},
+                           {"cy", camera_.cy}}},
                          {"depth_scale", config_.depth_scale}};
       const HttpResponse r = transport_->PostJson("/v1/sessions", body.dump());
       if (r.Ok()) {
@@ -123,7 +127,8 @@ UploadReport Uploader::Run(const std::atomic<bool>& stop) {
         continue;
       }
       if (r.Transient()) {
-        MD_LOG(kWarn, "upload: create session failed, retrying in " << delay << " s: " << Describe(r));
+        MD_LOG(kWarn,
+               "upload: create session failed, retrying in " << delay << " s: " << Describe(r));
         if (!Backoff(&delay, "create session: " + Describe(r), stop, &report)) break;
         continue;
       }
@@ -141,7 +146,8 @@ UploadReport Uploader::Run(const std::atomic<bool>& stop) {
         Succeeded(&delay);
       } else if (r.status == 409 && ErrorCodeOf(r) == "keyframe_conflict") {
         // The server holds other content under this seq; retrying cannot help.
-        MD_LOG(kError, "upload: keyframe " << item->seq << " conflicts with the server's: " << Describe(r));
+        MD_LOG(kError,
+               "upload: keyframe " << item->seq << " conflicts with the server's: " << Describe(r));
         queue_->MarkDone(item->seq);
         ++report.conflicts;
         Succeeded(&delay);  // the server answered

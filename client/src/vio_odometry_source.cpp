@@ -41,7 +41,8 @@ VioOdometrySource::VioOdometrySource(const StereoInput& input) : impl_(std::make
   // the VIO's per-keyframe relative covariance (a Schur complement of the whole window, ~5 % of
   // its CPU at 800x450) would be computed for nothing.
   config.compute_keyframe_covariance = false;
-  impl_->vio = std::make_unique<vio::StereoInertialOdometry>(config, sequence.cam0, sequence.cam1, sequence.imu);
+  impl_->vio = std::make_unique<vio::StereoInertialOdometry>(config, sequence.cam0, sequence.cam1,
+                                                             sequence.imu);
   for (const auto& f : sequence.StereoFrames()) impl_->frames[f.t_ns] = f;
 }
 
@@ -82,7 +83,8 @@ std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns, const StereoIm
 
 void VioOdometrySource::PrepareFrame(int64_t t_ns, const StereoImages& images) {
   if (impl_->frames.count(t_ns) == 0) return;
-  vio::TrackedFrame f = impl_->vio->TrackFrame(t_ns, Impl::View(images.left), Impl::View(images.right));
+  vio::TrackedFrame f =
+      impl_->vio->TrackFrame(t_ns, Impl::View(images.left), Impl::View(images.right));
   std::lock_guard lock(impl_->prepared_mutex);
   impl_->prepared.push_back(std::move(f));
 }

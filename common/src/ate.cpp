@@ -10,10 +10,14 @@
 namespace mapdelta {
 
 bool ParseAteAlignment(const std::string& text, AteAlignment* alignment) {
-  if (text == "none") *alignment = AteAlignment::kNone;
-  else if (text == "se3") *alignment = AteAlignment::kSE3;
-  else if (text == "sim3") *alignment = AteAlignment::kSim3;
-  else return false;
+  if (text == "none")
+    *alignment = AteAlignment::kNone;
+  else if (text == "se3")
+    *alignment = AteAlignment::kSE3;
+  else if (text == "sim3")
+    *alignment = AteAlignment::kSim3;
+  else
+    return false;
   return true;
 }
 
@@ -61,7 +65,8 @@ Association AssociateByTime(const Trajectory& ref, const Trajectory& est, int64_
   return out;
 }
 
-Similarity Umeyama(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target, bool with_scale) {
+Similarity Umeyama(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                   bool with_scale) {
   const auto n = source.cols();
   if (n < 3 || target.cols() != n) {
     throw Error(ErrorCode::kInvalidArgument, "Umeyama alignment needs at least 3 point pairs");
@@ -72,7 +77,8 @@ Similarity Umeyama(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& targe
   const Eigen::Matrix3Xd s = source.colwise() - mean_s;
   const Eigen::Matrix3Xd d = target.colwise() - mean_t;
   const double sigma_s = s.squaredNorm() / static_cast<double>(n);
-  if (!(sigma_s > 1e-20)) throw Error(ErrorCode::kInvalidArgument, "Umeyama alignment: all source points coincide");
+  if (!(sigma_s > 1e-20))
+    throw Error(ErrorCode::kInvalidArgument, "Umeyama alignment: all source points coincide");
   // 2. Cross-covariance, its SVD, and the reflection guard.
   const Eigen::Matrix3d cov = d * s.transpose() / static_cast<double>(n);
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -88,13 +94,16 @@ Similarity Umeyama(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& targe
 
 AteResult ComputeAte(const Trajectory& ref, const Trajectory& est, const AteParams& params) {
   if (!(params.max_dt_s >= 0) || !std::isfinite(params.max_dt_s)) {
-    throw Error(ErrorCode::kInvalidArgument, "ATE: max_dt must be a non-negative number of seconds");
+    throw Error(ErrorCode::kInvalidArgument,
+                "ATE: max_dt must be a non-negative number of seconds");
   }
-  const Association pairs = AssociateByTime(ref, est, static_cast<int64_t>(std::llround(params.max_dt_s * 1e9)));
+  const Association pairs =
+      AssociateByTime(ref, est, static_cast<int64_t>(std::llround(params.max_dt_s * 1e9)));
   const size_t n = pairs.ref_index.size();
   if (n == 0) {
     throw Error(ErrorCode::kInvalidArgument, "ATE: no poses of the two trajectories are within " +
-                                                 std::to_string(params.max_dt_s) + " s of each other");
+                                                 std::to_string(params.max_dt_s) +
+                                                 " s of each other");
   }
   Eigen::Matrix3Xd p_ref(3, n), p_est(3, n);
   for (size_t k = 0; k < n; ++k) {
@@ -112,7 +121,8 @@ AteResult ComputeAte(const Trajectory& ref, const Trajectory& est, const AtePara
     result.errors[k] = (p_ref.col(k) - (a.scale * a.R * p_est.col(k) + a.t)).norm();
   }
   const auto& e = result.errors;
-  result.sse = std::accumulate(e.begin(), e.end(), 0.0, [](double s, double v) { return s + v * v; });
+  result.sse =
+      std::accumulate(e.begin(), e.end(), 0.0, [](double s, double v) { return s + v * v; });
   result.mean = std::accumulate(e.begin(), e.end(), 0.0) / n;
   result.rmse = std::sqrt(result.sse / n);
   double var = 0;

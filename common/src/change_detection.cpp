@@ -80,7 +80,8 @@ PointCloud ObservedPriorCloud(const PointCloud& prior, const PointCloud& global,
   return Select(prior, keep);
 }
 
-Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m) {
+Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior,
+                        double th_ch_m) {
   CheckThreshold(th_ch_m);
   Changes changes;
   {
@@ -88,8 +89,7 @@ Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_pri
     changes.new_points = Select(global, FarFrom(global, prior_index, th_ch_m));
   }
   const NeighborIndex global_index(global);
-  changes.removed_points =
-      Select(observed_prior, FarFrom(observed_prior, global_index, th_ch_m));
+  changes.removed_points = Select(observed_prior, FarFrom(observed_prior, global_index, th_ch_m));
   return changes;
 }
 
@@ -99,7 +99,8 @@ namespace {
 using DepthSource = std::function<DepthImage(size_t index)>;
 
 PointCloud BuildGlobalCloudFrom(const KeyframeFolder& keyframes, const DepthSource& depth_of,
-                                double max_depth_m, double voxel_m, const ProgressFunction& progress) {
+                                double max_depth_m, double voxel_m,
+                                const ProgressFunction& progress) {
   if (!(max_depth_m > 0) || !(voxel_m > 0)) {
     throw Error(ErrorCode::kInvalidArgument, "global cloud: max depth and voxel size must be > 0");
   }
@@ -126,9 +127,11 @@ PointCloud BuildGlobalCloudFrom(const KeyframeFolder& keyframes, const DepthSour
   return VoxelDownsample(all, static_cast<float>(voxel_m));
 }
 
-ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes, const DepthSource& depth_of,
-                                        const PointCloud& prior, const ChangeDetectionParams& params,
-                                        const AlignFunction& align, const ProgressFunction& progress) {
+ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
+                                        const DepthSource& depth_of, const PointCloud& prior,
+                                        const ChangeDetectionParams& params,
+                                        const AlignFunction& align,
+                                        const ProgressFunction& progress) {
   CheckThreshold(params.th_ch_m);
   if (params.removed_min_free_keyframes < 0 || params.removed_min_free_keyframes > 4) {
     throw Error(ErrorCode::kInvalidArgument,
@@ -154,7 +157,8 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes, const D
     report("alignment", 0.0);
     result.T_prior_global = align(result.prior, result.global);
     if (!IsValidPose(result.T_prior_global, 1e-4)) {
-      throw Error(ErrorCode::kInternal, "change detection: alignment returned an invalid transform");
+      throw Error(ErrorCode::kInternal,
+                  "change detection: alignment returned an invalid transform");
     }
     result.global = Transform(result.global, result.T_prior_global);
   }
@@ -174,26 +178,29 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes, const D
   report("observed area", 1.0);
   // 4. Alg. 1 then Alg. 2, then optionally the per-point evidence of each removed point.
   report("classification", 0.0);
-  result.observed_prior = ObservedPriorCloud(result.prior, result.global, result.observed, params.th_ch_m);
+  result.observed_prior =
+      ObservedPriorCloud(result.prior, result.global, result.observed, params.th_ch_m);
   result.changes = ClassifyChanges(result.global, result.observed_prior, params.th_ch_m);
   if (params.removed_min_free_keyframes > 0) {
     result.changes.removed_points =
         SeenFree(result.changes.removed_points, result.observed, params.removed_min_free_keyframes);
   }
   report("classification", 1.0);
-  MD_LOG(kInfo, "change detection: observed prior " << result.observed_prior.size() << ", new "
-                                                    << result.changes.new_points.size() << ", removed "
-                                                    << result.changes.removed_points.size());
+  MD_LOG(kInfo, "change detection: observed prior "
+                    << result.observed_prior.size() << ", new " << result.changes.new_points.size()
+                    << ", removed " << result.changes.removed_points.size());
   return result;
 }
 
 DepthSource InMemory(const KeyframeFolder& keyframes) {
   for (const Keyframe& keyframe : keyframes.keyframes) {
-    if (keyframe.depth.width != keyframes.camera.width || keyframe.depth.height != keyframes.camera.height) {
+    if (keyframe.depth.width != keyframes.camera.width ||
+        keyframe.depth.height != keyframes.camera.height) {
       throw Error(ErrorCode::kInvalidArgument,
                   "keyframe " + std::to_string(keyframe.t_ns) + ": depth image is " +
-                      std::to_string(keyframe.depth.width) + "x" + std::to_string(keyframe.depth.height) +
-                      ", camera is " + std::to_string(keyframes.camera.width) + "x" +
+                      std::to_string(keyframe.depth.width) + "x" +
+                      std::to_string(keyframe.depth.height) + ", camera is " +
+                      std::to_string(keyframes.camera.width) + "x" +
                       std::to_string(keyframes.camera.height));
     }
   }
@@ -212,7 +219,8 @@ ChangeDetectionResult DetectChanges(const KeyframeFolder& keyframes, const Point
   return DetectChangesFrom(keyframes, InMemory(keyframes), prior, params, align, progress);
 }
 
-ChangeDetectionResult DetectChangesInFolder(const std::string& keyframe_dir, const PointCloud& prior,
+ChangeDetectionResult DetectChangesInFolder(const std::string& keyframe_dir,
+                                            const PointCloud& prior,
                                             const ChangeDetectionParams& params,
                                             const AlignFunction& align,
                                             const ProgressFunction& progress) {

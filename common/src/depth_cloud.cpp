@@ -7,13 +7,14 @@
 
 namespace mapdelta {
 
-PointCloud DepthToCloud(const PinholeCamera& camera, const DepthImage& depth, const SE3& T_frame_cam,
-                        double max_depth_m, int stride) {
+PointCloud DepthToCloud(const PinholeCamera& camera, const DepthImage& depth,
+                        const SE3& T_frame_cam, double max_depth_m, int stride) {
   if (depth.width != camera.width || depth.height != camera.height ||
       depth.depth_m.size() != static_cast<size_t>(depth.width) * depth.height) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "depth image is " + std::to_string(depth.width) + "x" + std::to_string(depth.height) +
-                    ", camera is " + std::to_string(camera.width) + "x" + std::to_string(camera.height));
+    throw Error(ErrorCode::kInvalidArgument, "depth image is " + std::to_string(depth.width) + "x" +
+                                                 std::to_string(depth.height) + ", camera is " +
+                                                 std::to_string(camera.width) + "x" +
+                                                 std::to_string(camera.height));
   }
   if (stride < 1) throw Error(ErrorCode::kInvalidArgument, "depth to cloud: stride must be >= 1");
   const Eigen::Isometry3f T = T_frame_cam.cast<float>();

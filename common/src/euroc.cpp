@@ -119,8 +119,8 @@ bool IsCommentOrBlank(const std::string& line) {
 
 void CheckIncreasing(const std::string& path, int64_t previous, int64_t current, int line) {
   if (current <= previous) {
-    throw Error(ErrorCode::kParse, path + ":" + std::to_string(line) +
-                                       ": timestamps must be strictly increasing");
+    throw Error(ErrorCode::kParse,
+                path + ":" + std::to_string(line) + ": timestamps must be strictly increasing");
   }
 }
 

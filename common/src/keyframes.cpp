@@ -67,7 +67,8 @@ std::map<int64_t, Matrix6d> ReadCovariances(const std::string& path) {
     fields >> t_ns;
     for (int i = 0; i < 36; ++i) fields >> c.data()[i];
     if (!fields || !c.allFinite()) {
-      throw Error(ErrorCode::kParse, path + ":" + std::to_string(n) + ": expected t_ns and 36 numbers");
+      throw Error(ErrorCode::kParse,
+                  path + ":" + std::to_string(n) + ": expected t_ns and 36 numbers");
     }
     out[t_ns] = c.transpose();  // file is row-major, Eigen is column-major
   }
@@ -120,17 +121,18 @@ DepthImage ReadKeyframeDepth(const std::string& dir, const KeyframeFolder& folde
   const std::string depth_path = dir + "/depth/" + std::to_string(t_ns) + ".png";
   DepthImage depth = ReadDepthPng(depth_path, folder.depth_scale);
   if (depth.width != folder.camera.width || depth.height != folder.camera.height) {
-    throw Error(ErrorCode::kParse,
-                depth_path + ": image is " + std::to_string(depth.width) + "x" +
-                    std::to_string(depth.height) + ", camera.yaml says " +
-                    std::to_string(folder.camera.width) + "x" + std::to_string(folder.camera.height));
+    throw Error(ErrorCode::kParse, depth_path + ": image is " + std::to_string(depth.width) + "x" +
+                                       std::to_string(depth.height) + ", camera.yaml says " +
+                                       std::to_string(folder.camera.width) + "x" +
+                                       std::to_string(folder.camera.height));
   }
   return depth;
 }
 
 KeyframeFolder ReadKeyframeFolder(const std::string& dir) {
   KeyframeFolder folder = ReadKeyframeFolderIndex(dir);
-  for (auto& keyframe : folder.keyframes) keyframe.depth = ReadKeyframeDepth(dir, folder, keyframe.t_ns);
+  for (auto& keyframe : folder.keyframes)
+    keyframe.depth = ReadKeyframeDepth(dir, folder, keyframe.t_ns);
   return folder;
 }
 

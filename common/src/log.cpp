@@ -15,11 +15,16 @@ std::function<void(Level, const std::string&)> g_sink;
 
 const char* LevelName(Level level) {
   switch (level) {
-    case Level::kDebug: return "DEBUG";
-    case Level::kInfo: return "INFO";
-    case Level::kWarn: return "WARN";
-    case Level::kError: return "ERROR";
-    case Level::kOff: return "OFF";
+    case Level::kDebug:
+      return "DEBUG";
+    case Level::kInfo:
+      return "INFO";
+    case Level::kWarn:
+      return "WARN";
+    case Level::kError:
+      return "ERROR";
+    case Level::kOff:
+      return "OFF";
   }
   return "?";
 }
@@ -43,12 +48,18 @@ void SetLevel(Level level) { g_level = level; }
 Level GetLevel() { return g_level; }
 
 bool ParseLevel(std::string_view text, Level* level) {
-  if (text == "debug") *level = Level::kDebug;
-  else if (text == "info") *level = Level::kInfo;
-  else if (text == "warn") *level = Level::kWarn;
-  else if (text == "error") *level = Level::kError;
-  else if (text == "off") *level = Level::kOff;
-  else return false;
+  if (text == "debug")
+    *level = Level::kDebug;
+  else if (text == "info")
+    *level = Level::kInfo;
+  else if (text == "warn")
+    *level = Level::kWarn;
+  else if (text == "error")
+    *level = Level::kError;
+  else if (text == "off")
+    *level = Level::kOff;
+  else
+    return false;
   return true;
 }
 
@@ -59,8 +70,10 @@ void SetSink(std::function<void(Level, const std::string&)> sink) {
 
 void Write(Level level, const std::string& message) {
   std::lock_guard lock(g_mutex);
-  if (g_sink) g_sink(level, message);
-  else StderrSink(level, message);
+  if (g_sink)
+    g_sink(level, message);
+  else
+    StderrSink(level, message);
 }
 
 }  // namespace mapdelta::log

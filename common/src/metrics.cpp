@@ -27,7 +27,8 @@ double Ratio(size_t numerator, size_t denominator) {
                           : static_cast<double>(numerator) / static_cast<double>(denominator);
 }
 
-ChangeMetrics Evaluate(const MetricsInput& input, const MetricsParams& params, bool reference_variant) {
+ChangeMetrics Evaluate(const MetricsInput& input, const MetricsParams& params,
+                       bool reference_variant) {
   if (!(params.rho_p_m > 0) || !(params.th_ch_m > 0)) {
     throw Error(ErrorCode::kInvalidArgument, "metrics: th_ch and rho_p must be > 0");
   }
@@ -40,9 +41,10 @@ ChangeMetrics Evaluate(const MetricsInput& input, const MetricsParams& params, b
   PointCloud detected_new = VoxelDownsample(input.detected_new, rho);
   PointCloud detected_removed = VoxelDownsample(input.detected_removed, rho);
   if (reference_variant) {
-    detected_new = RadiusOutlierFilter(detected_new, params.outlier_radius_m, params.outlier_min_neighbors);
-    detected_removed =
-        RadiusOutlierFilter(detected_removed, params.outlier_radius_m, params.outlier_min_neighbors);
+    detected_new =
+        RadiusOutlierFilter(detected_new, params.outlier_radius_m, params.outlier_min_neighbors);
+    detected_removed = RadiusOutlierFilter(detected_removed, params.outlier_radius_m,
+                                           params.outlier_min_neighbors);
   }
   // 2. Ground truth: Alg. 2 with P_g := changed scene, P_p^obs := original scene.
   const Changes truth = ClassifyChanges(changed, original, th);
@@ -100,7 +102,8 @@ ChangeMetrics EvaluateChangesPaper(const MetricsInput& input, const MetricsParam
   return Evaluate(input, params, false);
 }
 
-ChangeMetrics EvaluateChangesReferenceVariant(const MetricsInput& input, const MetricsParams& params) {
+ChangeMetrics EvaluateChangesReferenceVariant(const MetricsInput& input,
+                                              const MetricsParams& params) {
   return Evaluate(input, params, true);
 }
 

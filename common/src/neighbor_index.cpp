@@ -13,7 +13,9 @@ struct CloudAdaptor {
   size_t kdtree_get_point_count() const { return cloud->size(); }
   float kdtree_get_pt(size_t i, size_t dim) const { return (*cloud)[i][static_cast<int>(dim)]; }
   template <class Box>
-  bool kdtree_get_bbox(Box&) const { return false; }
+  bool kdtree_get_bbox(Box&) const {
+    return false;
+  }
 };
 
 // Result set that ends the search at the first point inside the radius. nanoflann offers a
@@ -22,7 +24,8 @@ struct CloudAdaptor {
 class AnyWithinResultSet {
  public:
   AnyWithinResultSet(float radius_sq, bool inclusive)
-      : bound_(inclusive ? std::nextafter(radius_sq, std::numeric_limits<float>::infinity()) : radius_sq) {}
+      : bound_(inclusive ? std::nextafter(radius_sq, std::numeric_limits<float>::infinity())
+                         : radius_sq) {}
   size_t size() const { return found_ ? 1 : 0; }
   bool full() const { return true; }
   bool addPoint(float dist_sq, size_t) {
@@ -37,8 +40,9 @@ class AnyWithinResultSet {
   bool found_ = false;
 };
 
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<
-    nanoflann::L2_Simple_Adaptor<float, CloudAdaptor>, CloudAdaptor, 3, size_t>;
+using KdTree =
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, CloudAdaptor>,
+                                        CloudAdaptor, 3, size_t>;
 
 }  // namespace
 

@@ -12,7 +12,8 @@
 namespace mapdelta {
 namespace {
 
-void CheckParams(const PinholeCamera& camera, const DepthImage& depth, const ObservedAreaParams& p) {
+void CheckParams(const PinholeCamera& camera, const DepthImage& depth,
+                 const ObservedAreaParams& p) {
   camera.Validate();
   if (depth.width != camera.width || depth.height != camera.height ||
       depth.depth_m.size() != static_cast<size_t>(depth.width) * depth.height) {
@@ -43,7 +44,9 @@ class EndPointFilter {
   void Add(const Point& p) {
     const Eigen::Vector3f scaled = (p * inv_leaf_).array().floor();
     if (!scaled.allFinite() || scaled.cwiseAbs().maxCoeff() >= (1 << 20)) return;
-    const auto coord = [](float v) { return static_cast<uint64_t>(static_cast<int64_t>(v) + (1 << 20)); };
+    const auto coord = [](float v) {
+      return static_cast<uint64_t>(static_cast<int64_t>(v) + (1 << 20));
+    };
     const uint64_t key = (coord(scaled.x()) << 42) | (coord(scaled.y()) << 21) | coord(scaled.z());
     if (!has_last_ || key != last_key_) {
       const auto [slot, inserted] = slot_of_key_.Insert(key);
@@ -79,7 +82,8 @@ uint64_t Pack(const octomap::OcTreeKey& k) {
   return (static_cast<uint64_t>(k[0]) << 32) | (static_cast<uint64_t>(k[1]) << 16) | k[2];
 }
 octomap::OcTreeKey Unpack(uint64_t v) {
-  return octomap::OcTreeKey(static_cast<octomap::key_type>(v >> 32), static_cast<octomap::key_type>((v >> 16) & 0xffff),
+  return octomap::OcTreeKey(static_cast<octomap::key_type>(v >> 32),
+                            static_cast<octomap::key_type>((v >> 16) & 0xffff),
                             static_cast<octomap::key_type>(v & 0xffff));
 }
 
@@ -189,7 +193,8 @@ ObservedArea::ObservedArea(double resolution_m) {
   impl_ = std::make_unique<Impl>(resolution_m);
 }
 ObservedArea::~ObservedArea() = default;
-ObservedArea::ObservedArea(const ObservedArea& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
+ObservedArea::ObservedArea(const ObservedArea& other)
+    : impl_(std::make_unique<Impl>(*other.impl_)) {}
 ObservedArea& ObservedArea::operator=(const ObservedArea& other) {
   if (this != &other) impl_ = std::make_unique<Impl>(*other.impl_);
   return *this;
@@ -202,7 +207,8 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
                                   const PriorSurfaces* prior) {
   CheckParams(camera, depth, params);
   if (!IsValidPose(T_map_cam, 1e-4)) {
-    throw Error(ErrorCode::kInvalidArgument, "observed area: T_map_cam is not a valid rigid transform");
+    throw Error(ErrorCode::kInvalidArgument,
+                "observed area: T_map_cam is not a valid rigid transform");
   }
   auto& tree = impl_->tree;
   if (prior && std::abs(prior->resolution_m() - tree.getResolution()) > 1e-9) {
@@ -286,7 +292,8 @@ void ObservedArea::Merge(const ObservedArea& other) {
                                                  std::to_string(res));
   }
   const unsigned max_depth = other.impl_->tree.getTreeDepth();
-  for (auto it = other.impl_->tree.begin_leafs(), end = other.impl_->tree.end_leafs(); it != end; ++it) {
+  for (auto it = other.impl_->tree.begin_leafs(), end = other.impl_->tree.end_leafs(); it != end;
+       ++it) {
     const float log_odds = it->getLogOdds();
     if (it.getDepth() == max_depth) {
       tree.updateNode(it.getKey(), log_odds, true);
@@ -294,7 +301,8 @@ void ObservedArea::Merge(const ObservedArea& other) {
     }
     // A pruned leaf stands for a cube of identical voxels: add each of them.
     const int n = 1 << (max_depth - it.getDepth());
-    const octomap::point3d corner = it.getCoordinate() - octomap::point3d(1, 1, 1) * (it.getSize() / 2);
+    const octomap::point3d corner =
+        it.getCoordinate() - octomap::point3d(1, 1, 1) * (it.getSize() / 2);
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j)
         for (int k = 0; k < n; ++k) {

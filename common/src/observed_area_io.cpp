@@ -53,7 +53,8 @@ double ValidateOctomapBinary(std::string_view bytes, const std::string& what) {
   const auto fail = [&](const std::string& problem) {
     return Error(ErrorCode::kParse, what + ": not a valid OctoMap binary (.bt) tree: " + problem);
   };
-  if (bytes.substr(0, kHeader.size()) != kHeader) throw fail("first line must be '" + std::string(kHeader) + "'");
+  if (bytes.substr(0, kHeader.size()) != kHeader)
+    throw fail("first line must be '" + std::string(kHeader) + "'");
   size_t pos = 0;
   std::string id;
   double resolution = 0;
@@ -67,11 +68,16 @@ double ValidateOctomapBinary(std::string_view bytes, const std::string& what) {
     std::string key;
     line >> key;
     if (key.empty() || key[0] == '#') continue;
-    if (key == "id") line >> id;
-    else if (key == "res") line >> resolution;
-    else if (key == "size") line >> size;
-    else if (key == "data") data = true;
-    else throw fail("unknown header keyword '" + key.substr(0, 32) + "'");
+    if (key == "id")
+      line >> id;
+    else if (key == "res")
+      line >> resolution;
+    else if (key == "size")
+      line >> size;
+    else if (key == "data")
+      data = true;
+    else
+      throw fail("unknown header keyword '" + key.substr(0, 32) + "'");
     if (!data && line.fail()) throw fail("bad value for '" + key + "'");
   }
   if (id != "OcTree") throw fail("id must be 'OcTree' (got '" + id.substr(0, 32) + "')");
@@ -86,7 +92,8 @@ double ValidateOctomapBinary(std::string_view bytes, const std::string& what) {
   if (!WalkNode(&stream, 0, &problem)) throw fail(problem);
   if (stream.pos != stream.data.size()) throw fail("trailing bytes after the node data");
   if (stream.nodes != static_cast<uint64_t>(size)) {
-    throw fail("header says " + std::to_string(size) + " nodes, data has " + std::to_string(stream.nodes));
+    throw fail("header says " + std::to_string(size) + " nodes, data has " +
+               std::to_string(stream.nodes));
   }
   return resolution;
 }
@@ -95,7 +102,8 @@ double ValidateOctomapBinary(std::string_view bytes, const std::string& what) {
 
 std::string ObservedArea::SerializeBinary() const {
   std::ostringstream out;
-  if (!impl_->tree.writeBinaryConst(out)) throw Error(ErrorCode::kInternal, "octree: binary write failed");
+  if (!impl_->tree.writeBinaryConst(out))
+    throw Error(ErrorCode::kInternal, "octree: binary write failed");
   return out.str();
 }
 

@@ -57,18 +57,58 @@ struct PcdHeader {
 double ReadValue(const char* p, const Field& f) {
   switch (f.type) {
     case 'F':
-      if (f.size == 4) { float v; std::memcpy(&v, p, 4); return v; }
-      { double v; std::memcpy(&v, p, 8); return v; }
+      if (f.size == 4) {
+        float v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      {
+        double v;
+        std::memcpy(&v, p, 8);
+        return v;
+      }
     case 'I':
-      if (f.size == 1) { int8_t v; std::memcpy(&v, p, 1); return v; }
-      if (f.size == 2) { int16_t v; std::memcpy(&v, p, 2); return v; }
-      if (f.size == 4) { int32_t v; std::memcpy(&v, p, 4); return v; }
-      { int64_t v; std::memcpy(&v, p, 8); return static_cast<double>(v); }
+      if (f.size == 1) {
+        int8_t v;
+        std::memcpy(&v, p, 1);
+        return v;
+      }
+      if (f.size == 2) {
+        int16_t v;
+        std::memcpy(&v, p, 2);
+        return v;
+      }
+      if (f.size == 4) {
+        int32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      {
+        int64_t v;
+        std::memcpy(&v, p, 8);
+        return static_cast<double>(v);
+      }
     default:
-      if (f.size == 1) { uint8_t v; std::memcpy(&v, p, 1); return v; }
-      if (f.size == 2) { uint16_t v; std::memcpy(&v, p, 2); return v; }
-      if (f.size == 4) { uint32_t v; std::memcpy(&v, p, 4); return v; }
-      { uint64_t v; std::memcpy(&v, p, 8); return static_cast<double>(v); }
+      if (f.size == 1) {
+        uint8_t v;
+        std::memcpy(&v, p, 1);
+        return v;
+      }
+      if (f.size == 2) {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return v;
+      }
+      if (f.size == 4) {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      {
+        uint64_t v;
+        std::memcpy(&v, p, 8);
+        return static_cast<double>(v);
+      }
   }
 }
 
@@ -87,7 +127,8 @@ PcdHeader ParseHeader(std::string_view bytes, const std::string& path) {
     const std::string& key = t[0];
     const std::vector<std::string> values(t.begin() + 1, t.end());
     const auto one_uint = [&](uint64_t* v) {
-      if (values.size() != 1 || !ParseUint(values[0], v)) reader.Fail(key + " must be one non-negative integer");
+      if (values.size() != 1 || !ParseUint(values[0], v))
+        reader.Fail(key + " must be one non-negative integer");
     };
     if (key == "VERSION") {
       if (values.size() != 1) reader.Fail("VERSION must have one value");
@@ -112,8 +153,8 @@ PcdHeader ParseHeader(std::string_view bytes, const std::string& path) {
     } else if (key == "VIEWPOINT") {
       if (values.size() != 7) reader.Fail("VIEWPOINT must have 7 values");
     } else if (key == "DATA") {
-      if (values.size() != 1 || (values[0] != "ascii" && values[0] != "binary" &&
-                                 values[0] != "binary_compressed")) {
+      if (values.size() != 1 ||
+          (values[0] != "ascii" && values[0] != "binary" && values[0] != "binary_compressed")) {
         reader.Fail("DATA must be ascii, binary or binary_compressed");
       }
       h.data = values[0];
@@ -126,7 +167,8 @@ PcdHeader ParseHeader(std::string_view bytes, const std::string& path) {
   const size_t n = h.fields.size();
   if (sizes.size() != n) reader.Fail("SIZE needs " + std::to_string(n) + " values (one per field)");
   if (types.size() != n) reader.Fail("TYPE needs " + std::to_string(n) + " values (one per field)");
-  if (!counts.empty() && counts.size() != n) reader.Fail("COUNT needs " + std::to_string(n) + " values");
+  if (!counts.empty() && counts.size() != n)
+    reader.Fail("COUNT needs " + std::to_string(n) + " values");
   if (!have_width || !have_height) reader.Fail("missing WIDTH or HEIGHT");
   if (h.width > kMaxPoints || h.height > kMaxPoints || h.width * h.height > kMaxPoints) {
     reader.Fail("WIDTH x HEIGHT is implausibly large");
@@ -135,7 +177,8 @@ PcdHeader ParseHeader(std::string_view bytes, const std::string& path) {
   if (h.points != h.width * h.height) reader.Fail("POINTS differs from WIDTH x HEIGHT");
   for (size_t i = 0; i < n; ++i) {
     Field& f = h.fields[i];
-    if (!ParseUint(sizes[i], &f.size) || (f.size != 1 && f.size != 2 && f.size != 4 && f.size != 8)) {
+    if (!ParseUint(sizes[i], &f.size) ||
+        (f.size != 1 && f.size != 2 && f.size != 4 && f.size != 8)) {
       reader.Fail("SIZE of field '" + f.name + "' must be 1, 2, 4 or 8");
     }
     if (types[i].size() != 1 || (types[i][0] != 'F' && types[i][0] != 'I' && types[i][0] != 'U')) {
@@ -150,7 +193,8 @@ PcdHeader ParseHeader(std::string_view bytes, const std::string& path) {
     h.point_size += f.size * f.count;
     f.value_index = i == 0 ? 0 : h.fields[i - 1].value_index + h.fields[i - 1].count;
     for (int axis = 0; axis < 3; ++axis) {
-      if (f.name == std::string(1, static_cast<char>('x' + axis))) h.xyz[axis] = static_cast<int>(i);
+      if (f.name == std::string(1, static_cast<char>('x' + axis)))
+        h.xyz[axis] = static_cast<int>(i);
     }
   }
   if (h.xyz[0] < 0 || h.xyz[1] < 0 || h.xyz[2] < 0) reader.Fail("FIELDS must include x, y and z");
@@ -186,8 +230,10 @@ bool LzfDecompress(const unsigned char* in, size_t in_size, unsigned char* out, 
 
 void Append(PointCloud* cloud, double x, double y, double z, size_t* dropped) {
   const Point p(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
-  if (p.allFinite()) cloud->push_back(p);
-  else ++*dropped;
+  if (p.allFinite())
+    cloud->push_back(p);
+  else
+    ++*dropped;
 }
 
 }  // namespace
@@ -221,9 +267,9 @@ PointCloud ParsePcd(std::string_view bytes, const std::string& path) {
       pos = end + 1;
       if (t.empty()) continue;
       if (t.size() != total_values) {
-        throw Error(ErrorCode::kParse, path + ": ascii point " + std::to_string(read + 1) + " has " +
-                                           std::to_string(t.size()) + " values, expected " +
-                                           std::to_string(total_values));
+        throw Error(ErrorCode::kParse, path + ": ascii point " + std::to_string(read + 1) +
+                                           " has " + std::to_string(t.size()) +
+                                           " values, expected " + std::to_string(total_values));
       }
       double xyz[3];
       for (int axis = 0; axis < 3; ++axis) {
@@ -258,7 +304,8 @@ PointCloud ParsePcd(std::string_view bytes, const std::string& path) {
                                          std::to_string(uncompressed) + " bytes, header implies " +
                                          std::to_string(need));
     }
-    if (uint64_t{compressed} + 8 > data.size()) throw short_data(uint64_t{compressed} + 8, data.size());
+    if (uint64_t{compressed} + 8 > data.size())
+      throw short_data(uint64_t{compressed} + 8, data.size());
     std::vector<unsigned char> raw(need);
     if (need > 0 && !LzfDecompress(reinterpret_cast<const unsigned char*>(data.data()) + 8,
                                    compressed, raw.data(), raw.size())) {
@@ -266,7 +313,8 @@ PointCloud ParsePcd(std::string_view bytes, const std::string& path) {
     }
     cloud.reserve(n);
     const auto column = [&](const Field& field, uint64_t i) {
-      return reinterpret_cast<const char*>(raw.data()) + n * field.offset + i * field.size * field.count;
+      return reinterpret_cast<const char*>(raw.data()) + n * field.offset +
+             i * field.size * field.count;
     };
     for (uint64_t i = 0; i < n; ++i) {
       Append(&cloud, ReadValue(column(*f[0], i), *f[0]), ReadValue(column(*f[1], i), *f[1]),
@@ -290,7 +338,8 @@ bool HeaderReader::NextLine(std::string_view* line) {
 }
 
 void HeaderReader::Fail(const std::string& what) const {
-  throw Error(ErrorCode::kParse, path_ + ": header line " + std::to_string(line_number_) + ": " + what);
+  throw Error(ErrorCode::kParse,
+              path_ + ": header line " + std::to_string(line_number_) + ": " + what);
 }
 
 }  // namespace mapdelta::detail

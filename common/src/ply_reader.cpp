@@ -3,8 +3,8 @@
 // bounds-checked so a truncated or lying file gives an error, not a crash.
 #include <algorithm>
 #include <bit>
-#include <cstdint>
 #include <cctype>
+#include <cstdint>
 #include <cstring>
 #include <optional>
 #include <sstream>
@@ -35,11 +35,14 @@ struct Element {
 };
 
 bool ScalarType(const std::string& name, char* kind, int* size) {
-  static const struct { const char* name; char kind; int size; } kTypes[] = {
-      {"char", 'i', 1},  {"int8", 'i', 1},    {"uchar", 'u', 1},  {"uint8", 'u', 1},
-      {"short", 'i', 2}, {"int16", 'i', 2},   {"ushort", 'u', 2}, {"uint16", 'u', 2},
-      {"int", 'i', 4},   {"int32", 'i', 4},   {"uint", 'u', 4},   {"uint32", 'u', 4},
-      {"float", 'f', 4}, {"float32", 'f', 4}, {"double", 'f', 8}, {"float64", 'f', 8}};
+  static const struct {
+    const char* name;
+    char kind;
+    int size;
+  } kTypes[] = {{"char", 'i', 1},  {"int8", 'i', 1},    {"uchar", 'u', 1},  {"uint8", 'u', 1},
+                {"short", 'i', 2}, {"int16", 'i', 2},   {"ushort", 'u', 2}, {"uint16", 'u', 2},
+                {"int", 'i', 4},   {"int32", 'i', 4},   {"uint", 'u', 4},   {"uint32", 'u', 4},
+                {"float", 'f', 4}, {"float32", 'f', 4}, {"double", 'f', 8}, {"float64", 'f', 8}};
   for (const auto& t : kTypes) {
     if (name == t.name) {
       *kind = t.kind;
@@ -69,16 +72,31 @@ class DataCursor {
     unsigned char b[8];
     std::memcpy(b, data_.data() + pos_, size);
     pos_ += size;
-    if ((format_ == Format::kBig) != (std::endian::native == std::endian::big)) std::reverse(b, b + size);
+    if ((format_ == Format::kBig) != (std::endian::native == std::endian::big))
+      std::reverse(b, b + size);
     switch (size) {
-      case 1: return kind == 'i' ? static_cast<double>(static_cast<int8_t>(b[0])) : b[0];
-      case 2: { uint16_t u; std::memcpy(&u, b, 2); return kind == 'i' ? static_cast<int16_t>(u) : u; }
+      case 1:
+        return kind == 'i' ? static_cast<double>(static_cast<int8_t>(b[0])) : b[0];
+      case 2: {
+        uint16_t u;
+        std::memcpy(&u, b, 2);
+        return kind == 'i' ? static_cast<int16_t>(u) : u;
+      }
       case 4: {
-        if (kind == 'f') { float f; std::memcpy(&f, b, 4); return f; }
-        uint32_t u; std::memcpy(&u, b, 4);
+        if (kind == 'f') {
+          float f;
+          std::memcpy(&f, b, 4);
+          return f;
+        }
+        uint32_t u;
+        std::memcpy(&u, b, 4);
         return kind == 'i' ? static_cast<double>(static_cast<int32_t>(u)) : u;
       }
-      default: { double d; std::memcpy(&d, b, 8); return d; }
+      default: {
+        double d;
+        std::memcpy(&d, b, 8);
+        return d;
+      }
     }
   }
   size_t remaining() const { return data_.size() - std::min(pos_, data_.size()); }
@@ -95,13 +113,15 @@ class DataCursor {
     char* parsed_end = nullptr;
     const double value = std::strtod(token.c_str(), &parsed_end);
     if (parsed_end != token.c_str() + token.size()) {
-      throw Error(ErrorCode::kParse, path_ + ": ascii data: '" + token.substr(0, 32) + "' is not a number");
+      throw Error(ErrorCode::kParse,
+                  path_ + ": ascii data: '" + token.substr(0, 32) + "' is not a number");
     }
     return value;
   }
   [[noreturn]] void Truncated() const {
     throw Error(ErrorCode::kParse, path_ + ": truncated data (ran out at element " +
-                                       std::to_string(element_index) + " of those the header declares)");
+                                       std::to_string(element_index) +
+                                       " of those the header declares)");
   }
   std::string_view data_;
   Format format_;
@@ -119,7 +139,8 @@ void SkipElement(const Element& element, DataCursor* cursor, const std::string& 
       }
       const double n = cursor->Scalar(p.count_kind, p.count_size);
       if (!(n >= 0) || n > static_cast<double>(cursor->remaining())) {
-        throw Error(ErrorCode::kParse, path + ": element '" + element.name + "' has a list of invalid length");
+        throw Error(ErrorCode::kParse,
+                    path + ": element '" + element.name + "' has a list of invalid length");
       }
       for (uint64_t k = 0; k < static_cast<uint64_t>(n); ++k) cursor->Scalar(p.kind, p.size);
     }
@@ -138,17 +159,22 @@ PointCloud ParsePly(std::string_view bytes, const std::string& path) {
   std::vector<Element> elements;
   bool ended = false;
   while (!ended) {
-    if (!reader.NextLine(&line)) throw Error(ErrorCode::kParse, path + ": PLY header has no end_header");
+    if (!reader.NextLine(&line))
+      throw Error(ErrorCode::kParse, path + ": PLY header has no end_header");
     const auto t = Tokens(line);
     if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
     if (t[0] == "end_header") {
       ended = true;
     } else if (t[0] == "format") {
       if (t.size() != 3 || t[2] != "1.0") reader.Fail("expected 'format <type> 1.0'");
-      if (t[1] == "ascii") format = Format::kAscii;
-      else if (t[1] == "binary_little_endian") format = Format::kLittle;
-      else if (t[1] == "binary_big_endian") format = Format::kBig;
-      else reader.Fail("unknown format '" + t[1].substr(0, 32) + "'");
+      if (t[1] == "ascii")
+        format = Format::kAscii;
+      else if (t[1] == "binary_little_endian")
+        format = Format::kLittle;
+      else if (t[1] == "binary_big_endian")
+        format = Format::kBig;
+      else
+        reader.Fail("unknown format '" + t[1].substr(0, 32) + "'");
     } else if (t[0] == "element") {
       Element e;
       if (t.size() != 3 || t[2].empty() || t[2].size() > 12 ||
@@ -163,12 +189,14 @@ PointCloud ParsePly(std::string_view bytes, const std::string& path) {
       Property p;
       if (t.size() == 3 && ScalarType(t[1], &p.kind, &p.size)) {
         p.name = t[2];
-      } else if (t.size() == 5 && t[1] == "list" && ScalarType(t[2], &p.count_kind, &p.count_size) &&
-                 p.count_kind != 'f' && ScalarType(t[3], &p.kind, &p.size)) {
+      } else if (t.size() == 5 && t[1] == "list" &&
+                 ScalarType(t[2], &p.count_kind, &p.count_size) && p.count_kind != 'f' &&
+                 ScalarType(t[3], &p.kind, &p.size)) {
         p.is_list = true;
         p.name = t[4];
       } else {
-        reader.Fail("expected 'property <type> <name>' or 'property list <int type> <type> <name>'");
+        reader.Fail(
+            "expected 'property <type> <name>' or 'property list <int type> <type> <name>'");
       }
       elements.back().properties.push_back(p);
     } else {
@@ -178,16 +206,19 @@ PointCloud ParsePly(std::string_view bytes, const std::string& path) {
   if (!format) throw Error(ErrorCode::kParse, path + ": PLY header has no format line");
   auto vertex = std::find_if(elements.begin(), elements.end(),
                              [](const Element& e) { return e.name == "vertex"; });
-  if (vertex == elements.end()) throw Error(ErrorCode::kParse, path + ": PLY header has no 'element vertex'");
+  if (vertex == elements.end())
+    throw Error(ErrorCode::kParse, path + ": PLY header has no 'element vertex'");
   int xyz[3] = {-1, -1, -1};
   for (size_t i = 0; i < vertex->properties.size(); ++i) {
     const auto& p = vertex->properties[i];
     for (int axis = 0; axis < 3; ++axis) {
-      if (!p.is_list && p.name == std::string(1, static_cast<char>('x' + axis))) xyz[axis] = static_cast<int>(i);
+      if (!p.is_list && p.name == std::string(1, static_cast<char>('x' + axis)))
+        xyz[axis] = static_cast<int>(i);
     }
   }
   if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0) {
-    throw Error(ErrorCode::kParse, path + ": PLY vertex element lacks scalar x, y and z properties");
+    throw Error(ErrorCode::kParse,
+                path + ": PLY vertex element lacks scalar x, y and z properties");
   }
 
   DataCursor cursor(bytes.substr(std::min(reader.offset(), bytes.size())), *format, path);
@@ -210,7 +241,8 @@ PointCloud ParsePly(std::string_view bytes, const std::string& path) {
       if (p.is_list) {
         const double n = cursor.Scalar(p.count_kind, p.count_size);
         if (!(n >= 0) || n > static_cast<double>(cursor.remaining())) {
-          throw Error(ErrorCode::kParse, path + ": vertex " + std::to_string(i) + " has a list of invalid length");
+          throw Error(ErrorCode::kParse,
+                      path + ": vertex " + std::to_string(i) + " has a list of invalid length");
         }
         for (uint64_t j = 0; j < static_cast<uint64_t>(n); ++j) cursor.Scalar(p.kind, p.size);
       } else {
@@ -221,8 +253,10 @@ PointCloud ParsePly(std::string_view bytes, const std::string& path) {
       }
     }
     const Point p(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
-    if (p.allFinite()) cloud.push_back(p);
-    else ++dropped;
+    if (p.allFinite())
+      cloud.push_back(p);
+    else
+      ++dropped;
   }
   if (dropped > 0) MD_LOG(kDebug, path << ": dropped " << dropped << " non-finite points");
   return cloud;

@@ -74,7 +74,8 @@ int64_t SecondsTextToNs(const std::string& line, double fallback_seconds) {
 void CheckSorted(const std::string& path, const Trajectory& trajectory) {
   for (size_t i = 1; i < trajectory.size(); ++i) {
     if (trajectory[i].t_ns < trajectory[i - 1].t_ns) {
-      throw Error(ErrorCode::kParse, path + ": timestamps decrease at pose " + std::to_string(i + 1));
+      throw Error(ErrorCode::kParse,
+                  path + ": timestamps decrease at pose " + std::to_string(i + 1));
     }
   }
 }
@@ -97,8 +98,7 @@ Trajectory ReadTumTrajectory(const std::string& path) {
     if (!(std::abs(v[0]) < kMaxStampSeconds)) {
       LineError(path, n, "time stamp beyond +-9.2e9 s (int64 ns)");
     }
-    trajectory.push_back({SecondsTextToNs(line, v[0]),
-                          MakeSE3(q, {v[1], v[2], v[3]})});
+    trajectory.push_back({SecondsTextToNs(line, v[0]), MakeSE3(q, {v[1], v[2], v[3]})});
   }
   CheckSorted(path, trajectory);
   return trajectory;

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <vector>
 
-#include "mapdelta/common/error.hpp"
 #include "flat_key_set.hpp"
+#include "mapdelta/common/error.hpp"
 
 namespace mapdelta {
 namespace {
@@ -44,7 +44,8 @@ PointCloud VoxelDownsample(const PointCloud& cloud, float leaf_m) {
     ++voxels[index].count;
   }
   PointCloud out(voxels.size());
-  for (size_t i = 0; i < voxels.size(); ++i) out[i] = (voxels[i].sum / voxels[i].count).cast<float>();
+  for (size_t i = 0; i < voxels.size(); ++i)
+    out[i] = (voxels[i].sum / voxels[i].count).cast<float>();
   return out;
 }
 

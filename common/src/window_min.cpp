@@ -18,7 +18,8 @@ void SlidingWindowMin(const float* in, int in_step, int n, int w, float* out) {
   value.assign(static_cast<size_t>(padded), inf);
   pre.resize(static_cast<size_t>(padded));
   suf.resize(static_cast<size_t>(padded));
-  for (int i = 0; i < n; ++i) value[static_cast<size_t>(w + i)] = in[static_cast<ptrdiff_t>(i) * in_step];
+  for (int i = 0; i < n; ++i)
+    value[static_cast<size_t>(w + i)] = in[static_cast<ptrdiff_t>(i) * in_step];
   for (int block = 0; block < padded; block += k) {
     pre[block] = value[block];
     for (int j = block + 1; j < block + k; ++j) pre[j] = std::min(pre[j - 1], value[j]);
@@ -32,7 +33,8 @@ void SlidingWindowMin(const float* in, int in_step, int n, int w, float* out) {
 
 std::vector<float> NearestDepthAround(const DepthImage& depth, int window_px, int stride) {
   if (window_px < 0 || stride < 1) {
-    throw Error(ErrorCode::kInvalidArgument, "NearestDepthAround: need window_px >= 0 and stride >= 1");
+    throw Error(ErrorCode::kInvalidArgument,
+                "NearestDepthAround: need window_px >= 0 and stride >= 1");
   }
   const float inf = std::numeric_limits<float>::infinity();
   const int width = depth.width, height = depth.height;

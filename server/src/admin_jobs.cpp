@@ -29,7 +29,8 @@ void JobContext::WaitForEarlierJobs(std::optional<JobType> of_type) {
   // Polled: earlier jobs are rare with one worker (never) and short-lived with several.
   constexpr auto kPoll = std::chrono::milliseconds(100);
   while (true) {
-    const std::optional<EarlierJob> earlier = storage.jobs().UnfinishedBefore(job.id, NowMs(), of_type);
+    const std::optional<EarlierJob> earlier =
+        storage.jobs().UnfinishedBefore(job.id, NowMs(), of_type);
     if (!earlier) return;
     if (earlier->claimable) throw JobYield(earlier->id);
     CheckShutdown();
@@ -73,7 +74,8 @@ namespace {
 std::vector<TileId> JobTiles(Storage& storage, const TileGrid& grid, const Json& params) {
   std::vector<TileId> tiles;
   if (params.contains("tiles")) {
-    for (const Json& t : params["tiles"]) tiles.push_back(*TileId::FromString(t.get<std::string>()));
+    for (const Json& t : params["tiles"])
+      tiles.push_back(*TileId::FromString(t.get<std::string>()));
   } else if (params.contains("bbox")) {
     const auto& b = params["bbox"];
     for (const TileId& t : grid.TilesInRect(b[0].get<double>(), b[1].get<double>(),
@@ -138,7 +140,8 @@ Json RunRefreshJob(JobContext& ctx) {
     if (v.job_id != ctx.job.id || !ctx.job.result_json) continue;
     Json result = Json::parse(*ctx.job.result_json);
     std::vector<TileId> refreshed;
-    for (const Json& t : result["tiles"]) refreshed.push_back(*TileId::FromString(t["tile"].get<std::string>()));
+    for (const Json& t : result["tiles"])
+      refreshed.push_back(*TileId::FromString(t["tile"].get<std::string>()));
     ReclassifyAround(ctx, grid, refreshed, v.version, cc);
     result["resumed"] = true;
     return result;
@@ -159,14 +162,19 @@ Json RunRefreshJob(JobContext& ctx) {
     std::vector<ChangePoint> changes = DecodeChanges(record->changes);
     if (record->prior_version != *latest) {  // classified against an older prior: redo
       changes = ClassifyTile(ctx.storage, grid, tile, *latest, cc,
-                             PipelineDetectionParams(ctx.config.pipeline), cache).changes;
+                             PipelineDetectionParams(ctx.config.pipeline), cache)
+                    .changes;
     }
     std::unordered_set<Point, PointHash, PointEq> removed;
     PointCloud added;
     for (const ChangePoint& c : changes) {
-      if (c.confidence < min_confidence || static_cast<int64_t>(c.supported_by.size()) < min_support) continue;
-      if (c.kind == ChangeKind::kRemoved) removed.insert(c.position);
-      else added.push_back(c.position);
+      if (c.confidence < min_confidence ||
+          static_cast<int64_t>(c.supported_by.size()) < min_support)
+        continue;
+      if (c.kind == ChangeKind::kRemoved)
+        removed.insert(c.position);
+      else
+        added.push_back(c.position);
     }
     if (removed.empty() && added.empty()) continue;
     PointCloud points;
@@ -190,14 +198,18 @@ Json RunRefreshJob(JobContext& ctx) {
     ctx.Progress(0.8 * (i + 1) / tiles.size(), "merged tile " + tile.ToString());
   }
   if (writes.empty()) {
-    return Json{{"prior_version", *latest}, {"tiles", tiles_report},
+    return Json{{"prior_version", *latest},
+                {"tiles", tiles_report},
                 {"note", "no change above the thresholds; prior unchanged"}};
   }
   // 2. One transaction: version N+1, its tiles, aggregation reset, log, the job's result.
   PriorVersionRecord meta;
   meta.note = "refresh job " + std::to_string(ctx.job.id);
-  Json result{{"prior_version", *latest + 1}, {"parent_version", *latest}, {"tiles", tiles_report},
-              {"min_confidence", min_confidence}, {"min_support", min_support}};
+  Json result{{"prior_version", *latest + 1},
+              {"parent_version", *latest},
+              {"tiles", tiles_report},
+              {"min_confidence", min_confidence},
+              {"min_support", min_support}};
   ctx.CheckStop();  // the last point where a cancel stops the refresh
   const int64_t version =
       ctx.storage.tiles().ApplyRefresh(ctx.job.id, meta, writes, result.dump(), NowMs());
@@ -213,8 +225,9 @@ Json RunRefreshJob(JobContext& ctx) {
 Json RunReclassifyJob(JobContext& ctx) {
   ctx.WaitForEarlierJobs();  // its thresholds apply from here on, after the jobs before it
   const Json params = Json::parse(ctx.job.params_json);
-  const ClassifyConfig cc = ClassifyConfigFromJson(params.value("params", Json::object()),
-                                                   CurrentClassifyConfig(ctx.storage, ctx.config.classify));
+  const ClassifyConfig cc =
+      ClassifyConfigFromJson(params.value("params", Json::object()),
+                             CurrentClassifyConfig(ctx.storage, ctx.config.classify));
   // The new thresholds become current first, so that later commits use them too.
   ctx.storage.tiles().PutSetting("classify", ToJson(cc).dump());
   const TileGrid grid(ctx.config.storage.tile_size_m);
@@ -235,8 +248,11 @@ Json RunReclassifyJob(JobContext& ctx) {
     ++count;
     ctx.Progress(static_cast<double>(i + 1) / tiles.size(), "reclassified " + tiles[i].ToString());
   }
-  return Json{{"params", ToJson(cc)}, {"prior_version", version}, {"tiles_classified", count},
-              {"new_points", new_points}, {"removed_points", removed_points}};
+  return Json{{"params", ToJson(cc)},
+              {"prior_version", version},
+              {"tiles_classified", count},
+              {"new_points", new_points},
+              {"removed_points", removed_points}};
 }
 
 }  // namespace mapdelta::server

@@ -33,9 +33,11 @@ const Json& Field(const Json& obj, const std::string& name) {
 
 double NumberField(const Json& obj, const std::string& name) {
   const Json& v = Field(obj, name);
-  if (!v.is_number()) throw ApiError(ApiCode::kInvalidArgument, "field '" + name + "': expected a number");
+  if (!v.is_number())
+    throw ApiError(ApiCode::kInvalidArgument, "field '" + name + "': expected a number");
   const double d = v.get<double>();
-  if (!std::isfinite(d)) throw ApiError(ApiCode::kInvalidArgument, "field '" + name + "': not finite");
+  if (!std::isfinite(d))
+    throw ApiError(ApiCode::kInvalidArgument, "field '" + name + "': not finite");
   return d;
 }
 
@@ -49,13 +51,15 @@ int64_t IntField(const Json& obj, const std::string& name) {
 
 std::string StringField(const Json& obj, const std::string& name) {
   const Json& v = Field(obj, name);
-  if (!v.is_string()) throw ApiError(ApiCode::kInvalidArgument, "field '" + name + "': expected a string");
+  if (!v.is_string())
+    throw ApiError(ApiCode::kInvalidArgument, "field '" + name + "': expected a string");
   return v.get<std::string>();
 }
 
 void RejectUnknownFields(const Json& obj, std::initializer_list<const char*> known,
                          const std::string& where) {
-  if (!obj.is_object()) throw ApiError(ApiCode::kInvalidArgument, where + ": expected a JSON object");
+  if (!obj.is_object())
+    throw ApiError(ApiCode::kInvalidArgument, where + ": expected a JSON object");
   const std::set<std::string> names(known.begin(), known.end());
   for (auto it = obj.begin(); it != obj.end(); ++it) {
     if (!names.count(it.key())) {
@@ -73,7 +77,8 @@ PinholeCamera CameraFromJson(const Json& j, const IngestConfig& limits) {
   c.fy = NumberField(j, "fy");
   c.cx = NumberField(j, "cx");
   c.cy = NumberField(j, "cy");
-  if (width < 1 || width > limits.max_image_width || height < 1 || height > limits.max_image_height) {
+  if (width < 1 || width > limits.max_image_width || height < 1 ||
+      height > limits.max_image_height) {
     throw ApiError(ApiCode::kInvalidArgument,
                    "camera: width/height must be in [1, " + std::to_string(limits.max_image_width) +
                        "] x [1, " + std::to_string(limits.max_image_height) + "]");
@@ -105,19 +110,20 @@ SE3 PoseFromJson(const Json& j, const std::string& field) {
     // NaN/inf cannot be written in strict JSON; clients that send null or strings for them
     // end up here too.
     if (!e.is_number() || !std::isfinite(e.get<double>())) {
-      throw ApiError(ApiCode::kInvalidPose, "field '" + field + "': non-finite or non-numeric entry");
+      throw ApiError(ApiCode::kInvalidPose,
+                     "field '" + field + "': non-finite or non-numeric entry");
     }
     v[i] = e.get<double>();
   }
   // Found by fuzz_keyframe_meta: t = 2e35 reached the voxel filter's double -> int64 cast.
   if (std::max({std::abs(v[0]), std::abs(v[1]), std::abs(v[2])}) > kMaxCoordinate) {
-    throw ApiError(ApiCode::kInvalidPose, "field '" + field + ".t': coordinates must be within +-1e8 m");
+    throw ApiError(ApiCode::kInvalidPose,
+                   "field '" + field + ".t': coordinates must be within +-1e8 m");
   }
   Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
   if (std::abs(q.norm() - 1.0) > 1e-3) {
-    throw ApiError(ApiCode::kInvalidPose,
-                   "field '" + field + ".q': quaternion norm " + std::to_string(q.norm()) +
-                       " is not 1 (within 1e-3)");
+    throw ApiError(ApiCode::kInvalidPose, "field '" + field + ".q': quaternion norm " +
+                                              std::to_string(q.norm()) + " is not 1 (within 1e-3)");
   }
   q.normalize();
   return MakeSE3(q, Eigen::Vector3d(v[0], v[1], v[2]));
@@ -137,7 +143,8 @@ std::optional<Matrix6d> CovarianceFromJson(const Json& j, const std::string& fie
   Matrix6d m;
   for (int i = 0; i < 36; ++i) {
     if (!j[i].is_number() || !std::isfinite(j[i].get<double>())) {
-      throw ApiError(ApiCode::kInvalidPose, "field '" + field + "': non-finite entry " + std::to_string(i));
+      throw ApiError(ApiCode::kInvalidPose,
+                     "field '" + field + "': non-finite entry " + std::to_string(i));
     }
     m(i / 6, i % 6) = j[i].get<double>();
   }
@@ -146,7 +153,8 @@ std::optional<Matrix6d> CovarianceFromJson(const Json& j, const std::string& fie
     throw ApiError(ApiCode::kInvalidPose, "field '" + field + "': not symmetric");
   }
   if ((m.diagonal().array() < 0).any()) {
-    throw ApiError(ApiCode::kInvalidPose, "field '" + field + "': negative variance on the diagonal");
+    throw ApiError(ApiCode::kInvalidPose,
+                   "field '" + field + "': negative variance on the diagonal");
   }
   return m;
 }

@@ -46,7 +46,8 @@ class Reader {
   }
   std::vector<int64_t> GetIds() {
     const auto n = Get<uint32_t>();
-    if (n > (b_.size() - pos_) / sizeof(int64_t)) throw Error(ErrorCode::kParse, "blob id list too long");
+    if (n > (b_.size() - pos_) / sizeof(int64_t))
+      throw Error(ErrorCode::kParse, "blob id list too long");
     std::vector<int64_t> ids(n);
     for (auto& id : ids) id = Get<int64_t>();
     return ids;
@@ -86,8 +87,8 @@ Bytes Open(Kind kind, const Bytes& blob) {
   if (r.Get<uint8_t>() != kind) throw Error(ErrorCode::kParse, "stored blob has the wrong kind");
   const auto version = r.Get<uint16_t>();
   if (version != kFormatVersion) {
-    throw Error(ErrorCode::kUnsupported, "stored blob format version " + std::to_string(version) +
-                                             " is not supported");
+    throw Error(ErrorCode::kUnsupported,
+                "stored blob format version " + std::to_string(version) + " is not supported");
   }
   const auto raw_size = r.Get<uint64_t>();
   const auto crc = r.Get<uint32_t>();
@@ -104,7 +105,8 @@ Bytes Open(Kind kind, const Bytes& blob) {
       out != raw_size) {
     throw Error(ErrorCode::kParse, "stored blob does not decompress");
   }
-  if (crc32(0, raw.data(), raw.size()) != crc) throw Error(ErrorCode::kParse, "stored blob checksum mismatch");
+  if (crc32(0, raw.data(), raw.size()) != crc)
+    throw Error(ErrorCode::kParse, "stored blob checksum mismatch");
   return raw;
 }
 

@@ -17,8 +17,8 @@ namespace mapdelta::server {
 // One voxel of a tile's aggregated cloud (voxel edge = aggregation voxel size).
 struct AggregateVoxel {
   Point centroid = Point::Zero();
-  uint32_t point_count = 0;          // points averaged into the centroid, over all sessions
-  std::vector<int64_t> sessions;     // sessions that put a point here (sorted, unique)
+  uint32_t point_count = 0;       // points averaged into the centroid, over all sessions
+  std::vector<int64_t> sessions;  // sessions that put a point here (sorted, unique)
 };
 using VoxelKey = std::array<int32_t, 3>;
 using TileAggregate = std::map<VoxelKey, AggregateVoxel>;

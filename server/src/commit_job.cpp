@@ -32,14 +32,16 @@ VoxelKey KeyOf(const Point& p, double voxel_m) {
 }
 
 // Adds one session's points (already voxel-filtered) to a tile's aggregate.
-void AddToAggregate(TileAggregate* agg, const PointCloud& points, int64_t session_id, double voxel_m) {
+void AddToAggregate(TileAggregate* agg, const PointCloud& points, int64_t session_id,
+                    double voxel_m) {
   for (const Point& p : points) {
     AggregateVoxel& v = (*agg)[KeyOf(p, voxel_m)];
     v.centroid = (v.centroid * static_cast<float>(v.point_count) + p) /
                  static_cast<float>(v.point_count + 1);
     v.point_count += 1;
     if (std::find(v.sessions.begin(), v.sessions.end(), session_id) == v.sessions.end()) {
-      v.sessions.insert(std::upper_bound(v.sessions.begin(), v.sessions.end(), session_id), session_id);
+      v.sessions.insert(std::upper_bound(v.sessions.begin(), v.sessions.end(), session_id),
+                        session_id);
     }
   }
 }
@@ -59,12 +61,14 @@ Registration AlignToPrior(JobContext& ctx, const TileGrid& grid, const PointClou
     return r;
   }
   if (!prior_version || session_cloud.size() < 50) {
-    r.report = {{"status", "skipped"}, {"reason", prior_version ? "too few session points" : "no prior map"}};
+    r.report = {{"status", "skipped"},
+                {"reason", prior_version ? "too few session points" : "no prior map"}};
     return r;
   }
   const AxisAlignedBox b = Bounds(session_cloud);
   PointCloud prior;
-  for (const TileId& t : grid.TilesInRect(b.min.x() - 5, b.min.y() - 5, b.max.x() + 5, b.max.y() + 5)) {
+  for (const TileId& t :
+       grid.TilesInRect(b.min.x() - 5, b.min.y() - 5, b.max.x() + 5, b.max.y() + 5)) {
     if (auto tile = ctx.storage.priors().GetTile(t, *prior_version)) {
       const PointCloud pts = DecodePoints(tile->points);
       prior.insert(prior.end(), pts.begin(), pts.end());
@@ -91,9 +95,11 @@ Registration AlignToPrior(JobContext& ctx, const TileGrid& grid, const PointClou
               {"correction_m", decision.correction_m},
               {"correction_rad", decision.correction_rad},
               {"T_prior_session", PoseToJson(result.T_target_source)}};
-  if (decision.accepted) r.T_correction = result.T_target_source;
-  else MD_LOG(kWarn, "job " << ctx.job.id << ": GICP to prior rejected (" << decision.reason
-                            << "); keeping the uploaded poses");
+  if (decision.accepted)
+    r.T_correction = result.T_target_source;
+  else
+    MD_LOG(kWarn, "job " << ctx.job.id << ": GICP to prior rejected (" << decision.reason
+                         << "); keeping the uploaded poses");
   return r;
 }
 
@@ -109,8 +115,8 @@ std::map<TileId, PointCloud> TouchedTiles(JobContext& ctx, const TileGrid& grid,
   for (const auto& c : camera_centres) centres.push_back(c.cast<float>());
   const AxisAlignedBox b = Bounds(centres);
   const double reach = ctx.config.pipeline.max_depth_m;
-  for (const TileId& t : grid.TilesInRect(b.min.x() - reach, b.min.y() - reach,
-                                          b.max.x() + reach, b.max.y() + reach)) {
+  for (const TileId& t : grid.TilesInRect(b.min.x() - reach, b.min.y() - reach, b.max.x() + reach,
+                                          b.max.y() + reach)) {
     if (by_tile.count(t)) continue;
     auto prior = ctx.storage.priors().GetTile(t, *prior_version);
     if (!prior || prior->point_count == 0) continue;
@@ -131,7 +137,8 @@ Json RunCommitJob(JobContext& ctx) {
   const Json params = Json::parse(ctx.job.params_json);
   const int64_t session_id = params.at("session_id").get<int64_t>();
   const auto session = ctx.storage.sessions().Get(session_id);
-  if (!session) throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " is gone");
+  if (!session)
+    throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " is gone");
   const PinholeCamera camera = CameraFromJson(Json::parse(session->camera_json), ctx.config.ingest);
   const PipelineConfig& pc = ctx.config.pipeline;
   const TileGrid grid(ctx.config.storage.tile_size_m);
@@ -150,8 +157,10 @@ Json RunCommitJob(JobContext& ctx) {
   const auto t2 = std::chrono::steady_clock::now();
 
   // 3. Observed octree with corrected poses (under pipeline.free_space's rule).
-  SessionObserved session_observed = BuildSessionObserved(ctx, *session, camera, reg.T_correction, 0.2, 0.8);
-  ctx.storage.sessions().PutObserved(session_id, EncodeObserved(session_observed.area.SerializeBinary()));
+  SessionObserved session_observed =
+      BuildSessionObserved(ctx, *session, camera, reg.T_correction, 0.2, 0.8);
+  ctx.storage.sessions().PutObserved(session_id,
+                                     EncodeObserved(session_observed.area.SerializeBinary()));
   const auto t3 = std::chrono::steady_clock::now();
 
   // 4. Touched tiles: where the session has points, or observed some prior point.
@@ -192,7 +201,8 @@ Json RunCommitJob(JobContext& ctx) {
   std::set<TileId> to_classify_set;
   for (const auto& [tile, points] : by_tile) {
     for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) to_classify_set.insert(TileId(tile.ix() + dx, tile.iy() + dy));
+      for (int dy = -1; dy <= 1; ++dy)
+        to_classify_set.insert(TileId(tile.ix() + dx, tile.iy() + dy));
     }
   }
   std::vector<TileId> to_classify;
@@ -207,7 +217,8 @@ Json RunCommitJob(JobContext& ctx) {
   ParallelFor(static_cast<int64_t>(to_classify.size()), pc.threads, [&](int64_t i) {
     ctx.CheckShutdown();
     records[i] = ClassifyTile(ctx.storage, grid, to_classify[i], prior_version.value_or(0), cc,
-                              detection, cache).record;
+                              detection, cache)
+                     .record;
     records[i].updated_ms = NowMs();
   });
   ctx.storage.tiles().ApplyChanges(0, records);

@@ -14,7 +14,9 @@
 namespace mapdelta::server {
 namespace {
 
-int64_t NumChunks(const SessionRecord& s, int64_t chunk) { return (s.keyframe_count + chunk - 1) / chunk; }
+int64_t NumChunks(const SessionRecord& s, int64_t chunk) {
+  return (s.keyframe_count + chunk - 1) / chunk;
+}
 
 // Reports progress after each finished chunk (from any worker).
 class ChunkProgress {

@@ -21,8 +21,8 @@ namespace mapdelta::server {
 ChangeDetectionParams PipelineDetectionParams(const PipelineConfig& pc);
 
 struct SessionCloud {
-  PointCloud cloud;               // all keyframes' clouds in seq order, voxel-filtered again
-  int64_t recomputed = 0;         // keyframes whose stored cloud was missing or stale
+  PointCloud cloud;        // all keyframes' clouds in seq order, voxel-filtered again
+  int64_t recomputed = 0;  // keyframes whose stored cloud was missing or stale
 };
 
 // Pass 1: the session cloud from the clouds stored at upload (PNG decoded only for keyframes

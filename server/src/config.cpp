@@ -75,7 +75,8 @@ ServerConfig LoadServerConfig(const std::string& path) {
 
 std::string DumpServerConfig(const ServerConfig& config) {
   ServerConfig copy = config;
-  copy.storage.postgres_url = RedactPostgresUrl(config.storage.postgres_url);  // no password in logs
+  copy.storage.postgres_url =
+      RedactPostgresUrl(config.storage.postgres_url);  // no password in logs
   return ConfigToYaml(Schema(copy));
 }
 

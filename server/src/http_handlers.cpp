@@ -113,7 +113,8 @@ Role Auth(MapService& s, const Req& req, std::string& role, std::initializer_lis
 Json ParseJsonBody(const Req& req, int64_t limit) {
   if (static_cast<int64_t>(req.body.size()) > limit) {
     throw ApiError(ApiCode::kPayloadTooLarge, "body of " + std::to_string(req.body.size()) +
-                                                  " bytes exceeds the limit of " + std::to_string(limit));
+                                                  " bytes exceeds the limit of " +
+                                                  std::to_string(limit));
   }
   const std::string type = req.get_header_value("Content-Type");
   if (type.rfind("application/json", 0) != 0) {
@@ -136,12 +137,14 @@ double QueryDouble(const Req& req, const char* name, std::optional<double> fallb
   auto v = Query(req, name);
   if (!v) {
     if (fallback) return *fallback;
-    throw ApiError(ApiCode::kInvalidArgument, std::string("query parameter '") + name + "' is required");
+    throw ApiError(ApiCode::kInvalidArgument,
+                   std::string("query parameter '") + name + "' is required");
   }
   char* end = nullptr;
   const double d = std::strtod(v->c_str(), &end);
   if (v->empty() || *end != '\0' || !std::isfinite(d)) {
-    throw ApiError(ApiCode::kInvalidArgument, std::string("query parameter '") + name + "': not a finite number");
+    throw ApiError(ApiCode::kInvalidArgument,
+                   std::string("query parameter '") + name + "': not a finite number");
   }
   return d;
 }
@@ -153,7 +156,8 @@ int64_t QueryInt(const Req& req, const char* name, int64_t fallback) {
   errno = 0;
   const long long n = std::strtoll(v->c_str(), &end, 10);
   if (v->empty() || *end != '\0' || errno == ERANGE) {
-    throw ApiError(ApiCode::kInvalidArgument, std::string("query parameter '") + name + "': not an integer");
+    throw ApiError(ApiCode::kInvalidArgument,
+                   std::string("query parameter '") + name + "': not an integer");
   }
   return n;
 }
@@ -174,11 +178,14 @@ constexpr auto R = Role::kReader;
 constexpr auto A = Role::kAdmin;
 
 void RegisterPublicRoutes(httplib::Server& s, MapService& svc) {
-  s.Get("/health", Wrap(svc, "/health", {}, [&svc](const Req&, Res& res, std::string&) { WriteJson(res, 200, svc.Health()); }));
+  s.Get("/health", Wrap(svc, "/health", {}, [&svc](const Req&, Res& res, std::string&) {
+          WriteJson(res, 200, svc.Health());
+        }));
   s.Get("/metrics", Wrap(svc, "/metrics", {}, [&svc](const Req&, Res& res, std::string&) {
           res.set_content(svc.RenderMetrics(), "text/plain; version=0.0.4");
         }));
-  s.Get("/v1/openapi.yaml", Wrap(svc, "/v1/openapi.yaml", {}, [](const Req&, Res& res, std::string&) {
+  s.Get("/v1/openapi.yaml",
+        Wrap(svc, "/v1/openapi.yaml", {}, [](const Req&, Res& res, std::string&) {
           res.set_content(std::string(OpenApiYaml()), "application/yaml");
         }));
 }
@@ -186,33 +193,46 @@ void RegisterPublicRoutes(httplib::Server& s, MapService& svc) {
 void RegisterVehicleRoutes(httplib::Server& s, MapService& svc) {
   const int64_t json_limit = svc.config().http.max_body_bytes;
   const int64_t keyframe_limit = svc.config().http.max_keyframe_bytes;
-  s.Post("/v1/sessions", Wrap(svc, "/v1/sessions", {}, [&svc, json_limit](const Req& req, Res& res, std::string& role) {
-           Auth(svc, req, role, {V});
-           WriteJson(res, 201, svc.CreateSession(ParseJsonBody(req, json_limit)));
-         }));
+  s.Post("/v1/sessions", Wrap(svc, "/v1/sessions", {},
+                              [&svc, json_limit](const Req& req, Res& res, std::string& role) {
+                                Auth(svc, req, role, {V});
+                                WriteJson(res, 201,
+                                          svc.CreateSession(ParseJsonBody(req, json_limit)));
+                              }));
   s.Put(R"(/v1/sessions/([0-9]{1,18})/keyframes/([0-9]{1,18}))",
-        Wrap(svc, "/v1/sessions/{id}/keyframes/{seq}", {}, [&svc, keyframe_limit](const Req& req, Res& res, std::string& role) {
-          Auth(svc, req, role, {V});
-          if (static_cast<int64_t>(req.body.size()) > keyframe_limit) {
-            throw ApiError(ApiCode::kPayloadTooLarge, "keyframe upload exceeds " + std::to_string(keyframe_limit) + " bytes");
-          }
-          if (!req.is_multipart_form_data()) {
-            throw ApiError(ApiCode::kUnsupportedMedia, "Content-Type must be multipart/form-data with parts 'meta' and 'depth'");
-          }
-          if (!req.has_file("meta") || !req.has_file("depth")) {
-            throw ApiError(ApiCode::kInvalidArgument, "multipart body needs parts 'meta' (JSON) and 'depth' (16-bit PNG)");
-          }
-          const Json meta = ParseApiJson(req.get_file_value("meta").content, "part 'meta'");
-          const std::string& png = req.get_file_value("depth").content;
-          bool created = false;
-          const Json out = svc.PutKeyframe(PathInt(req, 1), PathInt(req, 2), meta, Bytes(png.begin(), png.end()), &created);
-          WriteJson(res, created ? 201 : 200, out);
-        }));
-  s.Post(R"(/v1/sessions/([0-9]{1,18})/commit)", Wrap(svc, "/v1/sessions/{id}/commit", {}, [&svc](const Req& req, Res& res, std::string& role) {
-           Auth(svc, req, role, {V});
-           WriteJson(res, 202, svc.CommitSession(PathInt(req, 1)));
-         }));
-  s.Get(R"(/v1/sessions/([0-9]{1,18}))", Wrap(svc, "/v1/sessions/{id}", {}, [&svc](const Req& req, Res& res, std::string& role) {
+        Wrap(svc, "/v1/sessions/{id}/keyframes/{seq}", {},
+             [&svc, keyframe_limit](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {V});
+               if (static_cast<int64_t>(req.body.size()) > keyframe_limit) {
+                 throw ApiError(
+                     ApiCode::kPayloadTooLarge,
+                     "keyframe upload exceeds " + std::to_string(keyframe_limit) + " bytes");
+               }
+               if (!req.is_multipart_form_data()) {
+                 throw ApiError(
+                     ApiCode::kUnsupportedMedia,
+                     "Content-Type must be multipart/form-data with parts 'meta' and 'depth'");
+               }
+               if (!req.has_file("meta") || !req.has_file("depth")) {
+                 throw ApiError(
+                     ApiCode::kInvalidArgument,
+                     "multipart body needs parts 'meta' (JSON) and 'depth' (16-bit PNG)");
+               }
+               const Json meta = ParseApiJson(req.get_file_value("meta").content, "part 'meta'");
+               const std::string& png = req.get_file_value("depth").content;
+               bool created = false;
+               const Json out = svc.PutKeyframe(PathInt(req, 1), PathInt(req, 2), meta,
+                                                Bytes(png.begin(), png.end()), &created);
+               WriteJson(res, created ? 201 : 200, out);
+             }));
+  s.Post(R"(/v1/sessions/([0-9]{1,18})/commit)",
+         Wrap(svc, "/v1/sessions/{id}/commit", {},
+              [&svc](const Req& req, Res& res, std::string& role) {
+                Auth(svc, req, role, {V});
+                WriteJson(res, 202, svc.CommitSession(PathInt(req, 1)));
+              }));
+  s.Get(R"(/v1/sessions/([0-9]{1,18}))",
+        Wrap(svc, "/v1/sessions/{id}", {}, [&svc](const Req& req, Res& res, std::string& role) {
           Auth(svc, req, role, {V, R});
           WriteJson(res, 200, svc.GetSession(PathInt(req, 1)));
         }));
@@ -220,73 +240,108 @@ void RegisterVehicleRoutes(httplib::Server& s, MapService& svc) {
 
 void RegisterMapRoutes(httplib::Server& s, MapService& svc) {
   // --- prior map
-  s.Get("/v1/prior/tiles", Wrap(svc, "/v1/prior/tiles", {"x", "y", "radius", "version"}, [&svc](const Req& req, Res& res, std::string& role) {
-          Auth(svc, req, role, {V, R});
-          WriteJson(res, 200, svc.ListPriorTilesNear(QueryDouble(req, "x", std::nullopt), QueryDouble(req, "y", std::nullopt),
-                                                     QueryDouble(req, "radius", 100.0), QueryVersion(req)));
-        }));
-  s.Get("/v1/prior/versions", Wrap(svc, "/v1/prior/versions", {}, [&svc](const Req& req, Res& res, std::string& role) {
+  s.Get("/v1/prior/tiles",
+        Wrap(svc, "/v1/prior/tiles", {"x", "y", "radius", "version"},
+             [&svc](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {V, R});
+               WriteJson(
+                   res, 200,
+                   svc.ListPriorTilesNear(QueryDouble(req, "x", std::nullopt),
+                                          QueryDouble(req, "y", std::nullopt),
+                                          QueryDouble(req, "radius", 100.0), QueryVersion(req)));
+             }));
+  s.Get("/v1/prior/versions",
+        Wrap(svc, "/v1/prior/versions", {}, [&svc](const Req& req, Res& res, std::string& role) {
           Auth(svc, req, role, {V, R});
           WriteJson(res, 200, svc.ListPriorVersions());
         }));
-  s.Get(R"(/v1/prior/tiles/([-0-9_]{3,24}))", Wrap(svc, "/v1/prior/tiles/{tile}", {"version", "format"}, [&svc](const Req& req, Res& res, std::string& role) {
-          Auth(svc, req, role, {V, R});
-          WriteFile(res, svc.GetPriorTile(req.matches[1], QueryVersion(req), Query(req, "format").value_or("pcd")));
-        }));
+  s.Get(R"(/v1/prior/tiles/([-0-9_]{3,24}))",
+        Wrap(svc, "/v1/prior/tiles/{tile}", {"version", "format"},
+             [&svc](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {V, R});
+               WriteFile(res, svc.GetPriorTile(req.matches[1], QueryVersion(req),
+                                               Query(req, "format").value_or("pcd")));
+             }));
 
   // --- changes
-  s.Get("/v1/changes/tiles", Wrap(svc, "/v1/changes/tiles", {"bbox", "min_confidence", "min_support", "page", "page_size"}, [&svc](const Req& req, Res& res, std::string& role) {
-          Auth(svc, req, role, {R});
-          const auto bbox = Query(req, "bbox");
-          if (!bbox) throw ApiError(ApiCode::kInvalidArgument, "query parameter 'bbox' is required");
-          WriteJson(res, 200, svc.ListChangedTiles(*bbox, QueryDouble(req, "min_confidence", 0.0),
-                                                   QueryInt(req, "page", 1), QueryInt(req, "page_size", 100),
-                                                   QueryInt(req, "min_support", 0)));
-        }));
-  s.Get(R"(/v1/changes/tiles/([-0-9_]{3,24}))", Wrap(svc, "/v1/changes/tiles/{tile}", {"format", "kind", "min_confidence", "min_support"}, [&svc](const Req& req, Res& res, std::string& role) {
-          Auth(svc, req, role, {R});
-          WriteFile(res, svc.GetTileChanges(req.matches[1], Query(req, "format").value_or("json"),
-                                            Query(req, "kind").value_or(""), QueryDouble(req, "min_confidence", 0.0),
+  s.Get(
+      "/v1/changes/tiles",
+      Wrap(svc, "/v1/changes/tiles", {"bbox", "min_confidence", "min_support", "page", "page_size"},
+           [&svc](const Req& req, Res& res, std::string& role) {
+             Auth(svc, req, role, {R});
+             const auto bbox = Query(req, "bbox");
+             if (!bbox)
+               throw ApiError(ApiCode::kInvalidArgument, "query parameter 'bbox' is required");
+             WriteJson(res, 200,
+                       svc.ListChangedTiles(
+                           *bbox, QueryDouble(req, "min_confidence", 0.0), QueryInt(req, "page", 1),
+                           QueryInt(req, "page_size", 100), QueryInt(req, "min_support", 0)));
+           }));
+  s.Get(R"(/v1/changes/tiles/([-0-9_]{3,24}))",
+        Wrap(svc, "/v1/changes/tiles/{tile}", {"format", "kind", "min_confidence", "min_support"},
+             [&svc](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {R});
+               WriteFile(res,
+                         svc.GetTileChanges(req.matches[1], Query(req, "format").value_or("json"),
+                                            Query(req, "kind").value_or(""),
+                                            QueryDouble(req, "min_confidence", 0.0),
                                             QueryInt(req, "min_support", 0)));
-        }));
-  s.Get(R"(/v1/observed/tiles/([-0-9_]{3,24})\.bt)", Wrap(svc, "/v1/observed/tiles/{tile}.bt", {}, [&svc](const Req& req, Res& res, std::string& role) {
-          Auth(svc, req, role, {R});
-          WriteFile(res, svc.GetObservedTile(req.matches[1]));
-        }));
+             }));
+  s.Get(R"(/v1/observed/tiles/([-0-9_]{3,24})\.bt)",
+        Wrap(svc, "/v1/observed/tiles/{tile}.bt", {},
+             [&svc](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {R});
+               WriteFile(res, svc.GetObservedTile(req.matches[1]));
+             }));
 }
 
 void RegisterAdminRoutes(httplib::Server& s, MapService& svc) {
   const int64_t json_limit = svc.config().http.max_body_bytes;
   const int64_t prior_limit = svc.config().http.max_prior_bytes;
-  s.Post("/v1/admin/prior", Wrap(svc, "/v1/admin/prior", {"format", "note"}, [&svc, prior_limit](const Req& req, Res& res, std::string& role) {
-           Auth(svc, req, role, {A});
-           if (static_cast<int64_t>(req.body.size()) > prior_limit) {
-             throw ApiError(ApiCode::kPayloadTooLarge, "prior upload exceeds " + std::to_string(prior_limit) + " bytes");
-           }
-           if (req.get_header_value("Content-Type") != "application/octet-stream") {
-             throw ApiError(ApiCode::kUnsupportedMedia, "Content-Type must be application/octet-stream");
-           }
-           const auto format = Query(req, "format");
-           if (!format) throw ApiError(ApiCode::kInvalidArgument, "query parameter 'format' (pcd or ply) is required");
-           WriteJson(res, 201, svc.ImportPrior(Bytes(req.body.begin(), req.body.end()), *format,
-                                               Query(req, "note").value_or("")));
-         }));
-  s.Post("/v1/admin/jobs", Wrap(svc, "/v1/admin/jobs", {}, [&svc, json_limit](const Req& req, Res& res, std::string& role) {
-           Auth(svc, req, role, {A});
-           WriteJson(res, 202, svc.CreateJob(ParseJsonBody(req, json_limit)));
-         }));
-  s.Get("/v1/admin/jobs", Wrap(svc, "/v1/admin/jobs", {"page", "page_size"}, [&svc](const Req& req, Res& res, std::string& role) {
-          Auth(svc, req, role, {A});
-          WriteJson(res, 200, svc.ListJobs(QueryInt(req, "page", 1), QueryInt(req, "page_size", 50)));
-        }));
-  s.Get(R"(/v1/admin/jobs/([0-9]{1,18}))", Wrap(svc, "/v1/admin/jobs/{id}", {}, [&svc](const Req& req, Res& res, std::string& role) {
+  s.Post("/v1/admin/prior",
+         Wrap(svc, "/v1/admin/prior", {"format", "note"},
+              [&svc, prior_limit](const Req& req, Res& res, std::string& role) {
+                Auth(svc, req, role, {A});
+                if (static_cast<int64_t>(req.body.size()) > prior_limit) {
+                  throw ApiError(ApiCode::kPayloadTooLarge,
+                                 "prior upload exceeds " + std::to_string(prior_limit) + " bytes");
+                }
+                if (req.get_header_value("Content-Type") != "application/octet-stream") {
+                  throw ApiError(ApiCode::kUnsupportedMedia,
+                                 "Content-Type must be application/octet-stream");
+                }
+                const auto format = Query(req, "format");
+                if (!format)
+                  throw ApiError(ApiCode::kInvalidArgument,
+                                 "query parameter 'format' (pcd or ply) is required");
+                WriteJson(res, 201,
+                          svc.ImportPrior(Bytes(req.body.begin(), req.body.end()), *format,
+                                          Query(req, "note").value_or("")));
+              }));
+  s.Post("/v1/admin/jobs", Wrap(svc, "/v1/admin/jobs", {},
+                                [&svc, json_limit](const Req& req, Res& res, std::string& role) {
+                                  Auth(svc, req, role, {A});
+                                  WriteJson(res, 202,
+                                            svc.CreateJob(ParseJsonBody(req, json_limit)));
+                                }));
+  s.Get("/v1/admin/jobs",
+        Wrap(svc, "/v1/admin/jobs", {"page", "page_size"},
+             [&svc](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {A});
+               WriteJson(res, 200,
+                         svc.ListJobs(QueryInt(req, "page", 1), QueryInt(req, "page_size", 50)));
+             }));
+  s.Get(R"(/v1/admin/jobs/([0-9]{1,18}))",
+        Wrap(svc, "/v1/admin/jobs/{id}", {}, [&svc](const Req& req, Res& res, std::string& role) {
           Auth(svc, req, role, {A});
           WriteJson(res, 200, svc.GetJob(PathInt(req, 1)));
         }));
-  s.Post(R"(/v1/admin/jobs/([0-9]{1,18})/cancel)", Wrap(svc, "/v1/admin/jobs/{id}/cancel", {}, [&svc](const Req& req, Res& res, std::string& role) {
-           Auth(svc, req, role, {A});
-           WriteJson(res, 200, svc.CancelJob(PathInt(req, 1)));
-         }));
+  s.Post(R"(/v1/admin/jobs/([0-9]{1,18})/cancel)",
+         Wrap(svc, "/v1/admin/jobs/{id}/cancel", {},
+              [&svc](const Req& req, Res& res, std::string& role) {
+                Auth(svc, req, role, {A});
+                WriteJson(res, 200, svc.CancelJob(PathInt(req, 1)));
+              }));
 }
 
 }  // namespace

@@ -30,8 +30,8 @@ HttpServer::HttpServer(MapService& service) : impl_(std::make_unique<Impl>(servi
   const int threads = c.threads;
   s.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
   // The largest body any route accepts; routes check their own, smaller limits.
-  s.set_payload_max_length(static_cast<size_t>(
-      std::max({c.max_body_bytes, c.max_keyframe_bytes, c.max_prior_bytes})));
+  s.set_payload_max_length(
+      static_cast<size_t>(std::max({c.max_body_bytes, c.max_keyframe_bytes, c.max_prior_bytes})));
   s.set_read_timeout(c.read_timeout_s, 0);
   s.set_write_timeout(c.write_timeout_s, 0);
   // httplib keeps a worker on one keep-alive connection until it has made this many requests,
@@ -57,8 +57,10 @@ HttpServer::~HttpServer() { Stop(); }
 int HttpServer::Bind(const std::string& address, int port) {
   int bound = port;
   errno = 0;
-  if (port == 0) bound = impl_->server.bind_to_any_port(address);
-  else if (!impl_->server.bind_to_port(address, port)) bound = -1;
+  if (port == 0)
+    bound = impl_->server.bind_to_any_port(address);
+  else if (!impl_->server.bind_to_port(address, port))
+    bound = -1;
   if (bound <= 0) {
     // httplib reports only failure; errno is what its last bind()/listen() left.
     const std::string reason = errno != 0 ? std::strerror(errno) : "address not usable";

@@ -18,7 +18,8 @@ namespace mapdelta::server {
 // Thrown by JobContext::CheckStop: the job stops between tiles, leaving only whole tiles.
 struct JobInterrupted : std::runtime_error {
   explicit JobInterrupted(bool cancelled)
-      : std::runtime_error(cancelled ? "cancelled" : "server shutting down"), cancelled(cancelled) {}
+      : std::runtime_error(cancelled ? "cancelled" : "server shutting down"),
+        cancelled(cancelled) {}
   bool cancelled;
 };
 
@@ -37,8 +38,9 @@ struct JobContext {
   std::function<bool()> shutting_down;  // true on shutdown, or when this worker lost the lease
 
   void Progress(double fraction, const std::string& message);
-  void CheckStop();      // throws JobInterrupted on shutdown or cancel request
-  void CheckShutdown();  // throws JobInterrupted(false) on shutdown only (past the point of no cancel)
+  void CheckStop();  // throws JobInterrupted on shutdown or cancel request
+  void
+  CheckShutdown();  // throws JobInterrupted(false) on shutdown only (past the point of no cancel)
   // Jobs write tiles in job-id order, whatever the number of workers, so the result is the
   // one-worker result: waits until every earlier job (or, with of_type, every earlier job of
   // that type) has finished. Throws JobYield if that job has no worker, JobInterrupted on
@@ -52,8 +54,8 @@ Json ToJson(const ClassifyConfig& c);
 // Throws ApiError(kInvalidArgument) naming the bad field.
 ClassifyConfig ClassifyConfigFromJson(const Json& j, const ClassifyConfig& base);
 
-Json RunCommitJob(JobContext& ctx);      // returns the result JSON
-Json RunRefreshJob(JobContext& ctx);     // finishes the job itself (atomically with the version)
+Json RunCommitJob(JobContext& ctx);   // returns the result JSON
+Json RunRefreshJob(JobContext& ctx);  // finishes the job itself (atomically with the version)
 Json RunReclassifyJob(JobContext& ctx);
 
 }  // namespace mapdelta::server

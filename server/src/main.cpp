@@ -3,10 +3,10 @@
 
 #include <algorithm>
 #include <cstring>
-#include <map>
-#include <optional>
 #include <filesystem>
 #include <iostream>
+#include <map>
+#include <optional>
 #include <thread>
 
 #include "auth.hpp"
@@ -74,8 +74,10 @@ void InstallLogSink(const mds::LogConfig& c) {
   if (c.format != "json") return;
   md::log::SetSink([](md::log::Level lvl, const std::string& message) {
     static const char* kNames[] = {"debug", "info", "warn", "error", "off"};
-    const mds::Json line{{"ts", mds::NowMs()}, {"level", kNames[static_cast<int>(lvl)]}, {"msg", message}};
-    std::fprintf(stderr, "%s\n", line.dump(-1, ' ', false, mds::Json::error_handler_t::replace).c_str());
+    const mds::Json line{
+        {"ts", mds::NowMs()}, {"level", kNames[static_cast<int>(lvl)]}, {"msg", message}};
+    std::fprintf(stderr, "%s\n",
+                 line.dump(-1, ' ', false, mds::Json::error_handler_t::replace).c_str());
   });
 }
 
@@ -250,10 +252,11 @@ int TokenList(const std::vector<std::string>& args) {
 
 int ImportPrior(const std::vector<std::string>& args) {
   std::string config_path, path, note;
-  cli::Parser cli("mapdelta-server import-prior",
-                  "Imports a PCD, PLY or LAS cloud, or an Autoware grid map folder (tile PCDs\n"
-                  "listed in its pointcloud_map_metadata.yaml, each point checked against its\n"
-                  "tile's box), as a new prior version (over HTTP: POST /v1/admin/prior, PCD/PLY).");
+  cli::Parser cli(
+      "mapdelta-server import-prior",
+      "Imports a PCD, PLY or LAS cloud, or an Autoware grid map folder (tile PCDs\n"
+      "listed in its pointcloud_map_metadata.yaml, each point checked against its\n"
+      "tile's box), as a new prior version (over HTTP: POST /v1/admin/prior, PCD/PLY).");
   AddConfigOption(cli, &config_path)
       .Option("cloud", &path, "the prior map, in map coordinates", "FILE.pcd|.ply|.las|DIR")
       .Option("note", &note, "recorded with the version (default: the file name)", "TEXT")

@@ -27,20 +27,25 @@ void CheckPngHeader(const Bytes& png, const PinholeCamera& camera) {
   static constexpr uint8_t kIhdr[8] = {0, 0, 0, 13, 'I', 'H', 'D', 'R'};
   if (png.size() < 33 || !std::equal(kMagic, kMagic + 8, png.begin()) ||
       !std::equal(kIhdr, kIhdr + 8, png.begin() + 8)) {
-    throw ApiError(ApiCode::kInvalidImage, "part 'depth': not a PNG (bad signature or no IHDR chunk)");
+    throw ApiError(ApiCode::kInvalidImage,
+                   "part 'depth': not a PNG (bad signature or no IHDR chunk)");
   }
   auto be32 = [&](size_t at) {
-    return (uint32_t{png[at]} << 24) | (uint32_t{png[at + 1]} << 16) | (uint32_t{png[at + 2]} << 8) | png[at + 3];
+    return (uint32_t{png[at]} << 24) | (uint32_t{png[at + 1]} << 16) |
+           (uint32_t{png[at + 2]} << 8) | png[at + 3];
   };
   const uint32_t width = be32(16), height = be32(20);
-  if (width != static_cast<uint32_t>(camera.width) || height != static_cast<uint32_t>(camera.height)) {
+  if (width != static_cast<uint32_t>(camera.width) ||
+      height != static_cast<uint32_t>(camera.height)) {
     throw ApiError(ApiCode::kImageSizeMismatch,
-                   "part 'depth': image is " + std::to_string(width) + "x" + std::to_string(height) +
-                       ", session camera is " + std::to_string(camera.width) + "x" + std::to_string(camera.height));
+                   "part 'depth': image is " + std::to_string(width) + "x" +
+                       std::to_string(height) + ", session camera is " +
+                       std::to_string(camera.width) + "x" + std::to_string(camera.height));
   }
   if (png[24] != 16 || png[25] != 0) {
-    throw ApiError(ApiCode::kInvalidImage, "part 'depth': must be a 16-bit grayscale PNG (bit depth " +
-                                               std::to_string(png[24]) + ", colour type " + std::to_string(png[25]) + ")");
+    throw ApiError(ApiCode::kInvalidImage,
+                   "part 'depth': must be a 16-bit grayscale PNG (bit depth " +
+                       std::to_string(png[24]) + ", colour type " + std::to_string(png[25]) + ")");
   }
 }
 
@@ -60,7 +65,8 @@ MapService::MapService(ServerConfig config, std::unique_ptr<Storage> storage)
 MapService::~MapService() { StopJobWorker(); }
 
 TokenRecord MapService::Authorize(std::string_view header, std::initializer_list<Role> allowed) {
-  if (header.empty()) throw ApiError(ApiCode::kUnauthenticated, "missing 'Authorization: Bearer <token>' header");
+  if (header.empty())
+    throw ApiError(ApiCode::kUnauthenticated, "missing 'Authorization: Bearer <token>' header");
   auto token = Authenticate(*storage_, header);
   if (!token) throw ApiError(ApiCode::kUnauthenticated, "unknown, malformed or revoked token");
   if (!RoleAllows(token->role, allowed)) {
@@ -84,7 +90,8 @@ Json MapService::CreateSession(const Json& body) {
   double depth_scale = kDefaultDepthScale;
   if (body.contains("depth_scale")) depth_scale = NumberField(body, "depth_scale");
   if (!(depth_scale >= 1.0 && depth_scale <= 100000.0)) {
-    throw ApiError(ApiCode::kInvalidArgument, "field 'depth_scale': must be in [1, 100000] units per metre");
+    throw ApiError(ApiCode::kInvalidArgument,
+                   "field 'depth_scale': must be in [1, 100000] units per metre");
   }
   SessionRecord r;
   r.vehicle_id = vehicle;
@@ -99,12 +106,14 @@ Json MapService::CreateSession(const Json& body) {
 Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
                              const Bytes& depth_png, bool* created) {
   const auto session = storage_->sessions().Get(session_id);
-  if (!session) throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " does not exist");
+  if (!session)
+    throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " does not exist");
   // Validate everything before touching storage: nothing is stored half-way.
   try {
     if (seq < 0) throw ApiError(ApiCode::kInvalidArgument, "seq must be >= 0");
     if (seq >= config_.ingest.max_keyframes_per_session) {
-      throw ApiError(ApiCode::kLimitExceeded, "seq " + std::to_string(seq) + " exceeds ingest.max_keyframes_per_session");
+      throw ApiError(ApiCode::kLimitExceeded,
+                     "seq " + std::to_string(seq) + " exceeds ingest.max_keyframes_per_session");
     }
     RejectUnknownFields(meta, {"t_ns", "T_map_cam", "covariance"}, "meta");
     const int64_t t_ns = IntField(meta, "t_ns");
@@ -150,17 +159,21 @@ Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
         metrics_.keyframes_ingested += 1;
         metrics_.keyframe_bytes += static_cast<int64_t>(depth_png.size());
         break;
-      case PutKeyframeOutcome::kIdentical: *created = false; break;
+      case PutKeyframeOutcome::kIdentical:
+        *created = false;
+        break;
       case PutKeyframeOutcome::kConflict:
-        throw ApiError(ApiCode::kKeyframeConflict, "keyframe " + std::to_string(seq) +
-                                                       " was already uploaded with different content");
+        throw ApiError(
+            ApiCode::kKeyframeConflict,
+            "keyframe " + std::to_string(seq) + " was already uploaded with different content");
       case PutKeyframeOutcome::kOutOfOrder:
         throw ApiError(ApiCode::kSeqOutOfOrder,
                        "seq " + std::to_string(seq) + " is not the next one (expected " +
                            std::to_string(storage_->sessions().Get(session_id)->keyframe_count) +
                            ")");
       case PutKeyframeOutcome::kTimeNotIncreasing:
-        throw ApiError(ApiCode::kTimeNotIncreasing, "t_ns must be greater than the previous keyframe's");
+        throw ApiError(ApiCode::kTimeNotIncreasing,
+                       "t_ns must be greater than the previous keyframe's");
       case PutKeyframeOutcome::kSessionNotOpen:
         throw ApiError(ApiCode::kSessionNotOpen,
                        "session is " + std::string(ToString(session->state)) + ", not open");
@@ -176,7 +189,8 @@ Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
 
 Json MapService::CommitSession(int64_t session_id) {
   const auto session = storage_->sessions().Get(session_id);
-  if (!session) throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " does not exist");
+  if (!session)
+    throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " does not exist");
   if (session->keyframe_count == 0) {
     throw ApiError(ApiCode::kInvalidArgument, "session has no keyframes to commit");
   }
@@ -194,7 +208,8 @@ Json MapService::CommitSession(int64_t session_id) {
 
 Json MapService::GetSession(int64_t session_id) {
   const auto s = storage_->sessions().Get(session_id);
-  if (!s) throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " does not exist");
+  if (!s)
+    throw ApiError(ApiCode::kNotFound, "session " + std::to_string(session_id) + " does not exist");
   Json j{{"session_id", s->id},
          {"vehicle_id", s->vehicle_id},
          {"camera", Json::parse(s->camera_json)},
@@ -272,7 +287,8 @@ bool MapService::RunOneJob() {
   MD_LOG(kInfo, "job " << job->id << " (" << ToString(job->type) << ") started, attempt "
                        << job->attempts << ", worker " << jobs.worker_id());
   const LeaseKeeper lease(jobs, job->id, lease_ms);
-  JobContext ctx{*storage_, config_, metrics_, *job, [&] { return stopping_.load() || lease.lost(); }};
+  JobContext ctx{*storage_, config_, metrics_, *job,
+                 [&] { return stopping_.load() || lease.lost(); }};
   std::optional<int64_t> session_id;
   if (job->type == JobType::kCommit) {
     session_id = Json::parse(job->params_json).value("session_id", int64_t{0});
@@ -299,12 +315,15 @@ bool MapService::RunOneJob() {
   } catch (const JobInterrupted& e) {
     if (lease.lost()) return true;  // its new worker finishes it
     if (!e.cancelled) {
-      MD_LOG(kInfo, "job " << job->id << " paused by shutdown; another worker or the next start resumes it");
+      MD_LOG(kInfo, "job " << job->id
+                           << " paused by shutdown; another worker or the next start resumes it");
       jobs.Release(job->id);
       return false;
     }
-    jobs.Finish(job->id, JobState::kCancelled, "cancelled while running (finished tiles kept)", std::nullopt, NowMs());
-    if (session_id) storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
+    jobs.Finish(job->id, JobState::kCancelled, "cancelled while running (finished tiles kept)",
+                std::nullopt, NowMs());
+    if (session_id)
+      storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
     MD_LOG(kInfo, "job " << job->id << " cancelled");
   } catch (const std::exception& e) {
     if (lease.lost()) {
@@ -312,12 +331,14 @@ bool MapService::RunOneJob() {
       return true;
     }
     jobs.Finish(job->id, JobState::kFailed, e.what(), std::nullopt, NowMs());
-    if (session_id) storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
+    if (session_id)
+      storage_->sessions().Finish(*session_id, SessionState::kFailed, std::nullopt, NowMs());
     MD_LOG(kError, "job " << job->id << " failed: " << e.what());
   }
   metrics_.jobs_finished += 1;
-  metrics_.job_seconds_ms += std::chrono::duration_cast<std::chrono::milliseconds>(
-                                 std::chrono::steady_clock::now() - t0).count();
+  metrics_.job_seconds_ms +=
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0)
+          .count();
   return true;
 }
 

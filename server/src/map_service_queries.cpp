@@ -42,7 +42,8 @@ class TempFile {
   }
   void Write(const Bytes& bytes) const {
     std::ofstream out(path_, std::ios::binary);
-    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    out.write(reinterpret_cast<const char*>(bytes.data()),
+              static_cast<std::streamsize>(bytes.size()));
     if (!out) throw Error(ErrorCode::kIo, path_ + ": cannot write");
   }
 
@@ -66,7 +67,8 @@ FilePayload CloudPayload(const Cloud& cloud, const std::string& format, Writer w
 
 TileId ParseTile(const std::string& text) {
   auto tile = TileId::FromString(text);
-  if (!tile) throw ApiError(ApiCode::kInvalidArgument, "tile id '" + text + "' is not of the form ix_iy");
+  if (!tile)
+    throw ApiError(ApiCode::kInvalidArgument, "tile id '" + text + "' is not of the form ix_iy");
   return *tile;
 }
 
@@ -89,12 +91,15 @@ std::vector<double> ParseBbox(const std::string& text) {
     v.push_back(d);
   }
   for (double d : v) {
-    if (std::abs(d) > kMaxCoordinate) throw ApiError(ApiCode::kInvalidArgument, "bbox: coordinates must be within +-1e8 m");
+    if (std::abs(d) > kMaxCoordinate)
+      throw ApiError(ApiCode::kInvalidArgument, "bbox: coordinates must be within +-1e8 m");
   }
   if (v.size() != 4 || v[0] > v[2] || v[1] > v[3]) {
-    throw ApiError(ApiCode::kInvalidArgument, "bbox must be min_x,min_y,max_x,max_y with min <= max");
+    throw ApiError(ApiCode::kInvalidArgument,
+                   "bbox must be min_x,min_y,max_x,max_y with min <= max");
   }
-  if (v[2] - v[0] > 1e6 || v[3] - v[1] > 1e6) throw ApiError(ApiCode::kInvalidArgument, "bbox larger than 1000 km");
+  if (v[2] - v[0] > 1e6 || v[3] - v[1] > 1e6)
+    throw ApiError(ApiCode::kInvalidArgument, "bbox larger than 1000 km");
   return v;
 }
 
@@ -102,7 +107,8 @@ constexpr int64_t kMaxPage = 1'000'000'000;
 
 void CheckPage(int64_t page, int64_t page_size) {
   if (page < 1) throw ApiError(ApiCode::kInvalidArgument, "page must be >= 1");
-  if (page_size < 1 || page_size > 1000) throw ApiError(ApiCode::kInvalidArgument, "page_size must be in [1, 1000]");
+  if (page_size < 1 || page_size > 1000)
+    throw ApiError(ApiCode::kInvalidArgument, "page_size must be in [1, 1000]");
   // The storage offset is (page - 1) * page_size: a page near 2^63 would overflow it.
   if (page > kMaxPage)
     throw ApiError(ApiCode::kInvalidArgument, "page must be <= " + std::to_string(kMaxPage));
@@ -165,37 +171,47 @@ Json MapService::ImportPriorFile(const std::string& path, const std::string& not
   meta.note = note;
   const int64_t version = storage_->priors().CreateVersion(meta, tiles, /*replace_all=*/true);
   MD_LOG(kInfo, "prior version " << version << " imported: " << cloud.size() << " points in "
-                                 << tiles.size() << " tiles (" << dropped << " non-finite dropped)");
-  return Json{{"prior_version", version}, {"points", cloud.size()}, {"tiles", tiles.size()},
-              {"dropped_non_finite", dropped}, {"tile_size_m", config_.storage.tile_size_m}};
+                                 << tiles.size() << " tiles (" << dropped
+                                 << " non-finite dropped)");
+  return Json{{"prior_version", version},
+              {"points", cloud.size()},
+              {"tiles", tiles.size()},
+              {"dropped_non_finite", dropped},
+              {"tile_size_m", config_.storage.tile_size_m}};
 }
 
-Json MapService::ImportPrior(const Bytes& bytes, const std::string& format, const std::string& note) {
-  if (format != "pcd" && format != "ply") throw ApiError(ApiCode::kInvalidArgument, "format must be pcd or ply");
+Json MapService::ImportPrior(const Bytes& bytes, const std::string& format,
+                             const std::string& note) {
+  if (format != "pcd" && format != "ply")
+    throw ApiError(ApiCode::kInvalidArgument, "format must be pcd or ply");
   if (bytes.empty()) throw ApiError(ApiCode::kInvalidArgument, "body is empty");
   TempFile f("." + format);
   f.Write(bytes);
   return ImportPriorFile(f.path(), note);
 }
 
-Json MapService::ListPriorTilesNear(double x, double y, double radius_m, std::optional<int64_t> version) {
+Json MapService::ListPriorTilesNear(double x, double y, double radius_m,
+                                    std::optional<int64_t> version) {
   if (!(std::abs(x) <= kMaxCoordinate && std::abs(y) <= kMaxCoordinate)) {
     throw ApiError(ApiCode::kInvalidArgument, "x and y must be finite and within +-1e8 m");
   }
-  if (!(radius_m >= 0 && radius_m <= 10000)) throw ApiError(ApiCode::kInvalidArgument, "radius must be in [0, 10000] m");
+  if (!(radius_m >= 0 && radius_m <= 10000))
+    throw ApiError(ApiCode::kInvalidArgument, "radius must be in [0, 10000] m");
   const int64_t latest = RequirePriorVersion();
   const int64_t v = version.value_or(latest);
-  if (v < 1 || v > latest) throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
+  if (v < 1 || v > latest)
+    throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
   const TileGrid grid(config_.storage.tile_size_m);
   Json tiles = Json::array();
   for (const PriorTileRecord& t : storage_->priors().ListTiles(
            TileRange(grid, x - radius_m, y - radius_m, x + radius_m, y + radius_m), v)) {
     const AxisAlignedBox b = grid.Bounds(t.tile);
-    tiles.push_back({{"tile", t.tile.ToString()},
-                     {"points", t.point_count},
-                     {"tile_version", t.version},
-                     {"bounds", {b.min.x(), b.min.y(), b.max.x(), b.max.y()}},
-                     {"url", "/v1/prior/tiles/" + t.tile.ToString() + "?version=" + std::to_string(v)}});
+    tiles.push_back(
+        {{"tile", t.tile.ToString()},
+         {"points", t.point_count},
+         {"tile_version", t.version},
+         {"bounds", {b.min.x(), b.min.y(), b.max.x(), b.max.y()}},
+         {"url", "/v1/prior/tiles/" + t.tile.ToString() + "?version=" + std::to_string(v)}});
   }
   return Json{{"prior_version", v}, {"tile_size_m", grid.tile_size_m()}, {"tiles", tiles}};
 }
@@ -205,9 +221,12 @@ FilePayload MapService::GetPriorTile(const std::string& tile_text, std::optional
   const TileId tile = ParseTile(tile_text);
   const int64_t latest = RequirePriorVersion();
   const int64_t v = version.value_or(latest);
-  if (v < 1 || v > latest) throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
+  if (v < 1 || v > latest)
+    throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
   auto record = storage_->priors().GetTile(tile, v);
-  if (!record) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no prior points at version " + std::to_string(v));
+  if (!record)
+    throw ApiError(ApiCode::kNotFound,
+                   "tile " + tile_text + " has no prior points at version " + std::to_string(v));
   FilePayload p = CloudPayload(DecodePoints(record->points), format, WriteCloud);
   p.prior_version = v;
   return p;
@@ -233,7 +252,8 @@ Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence
                                   int64_t page_size, int64_t min_support) {
   const std::vector<double> b = ParseBbox(bbox);
   CheckPage(page, page_size);
-  if (!(min_confidence >= 0 && min_confidence <= 1)) throw ApiError(ApiCode::kInvalidArgument, "min_confidence must be in [0, 1]");
+  if (!(min_confidence >= 0 && min_confidence <= 1))
+    throw ApiError(ApiCode::kInvalidArgument, "min_confidence must be in [0, 1]");
   if (min_support < 0) throw ApiError(ApiCode::kInvalidArgument, "min_support must be >= 0");
   const TileGrid grid(config_.storage.tile_size_m);
   const Rect range = TileRange(grid, b[0], b[1], b[2], b[3]);
@@ -251,7 +271,8 @@ Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence
         storage_->tiles().ListChanged(range, min_confidence, kMaxCandidates + 1, 0, &candidates);
     if (candidates > kMaxCandidates) {
       throw ApiError(ApiCode::kInvalidArgument, "min_support filtering covers at most " +
-                                                    std::to_string(kMaxCandidates) + " changed tiles; use a smaller bbox");
+                                                    std::to_string(kMaxCandidates) +
+                                                    " changed tiles; use a smaller bbox");
     }
     for (const TileChangesRecord& summary : all) {
       auto full = storage_->tiles().GetChanges(summary.tile);
@@ -260,12 +281,15 @@ Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence
       r.new_count = r.removed_count = 0;
       r.max_confidence = 0;
       for (const ChangePoint& c : DecodeChanges(full->changes)) {
-        if (c.confidence < min_confidence || static_cast<int64_t>(c.supported_by.size()) < min_support) continue;
+        if (c.confidence < min_confidence ||
+            static_cast<int64_t>(c.supported_by.size()) < min_support)
+          continue;
         (c.kind == ChangeKind::kNew ? r.new_count : r.removed_count) += 1;
         r.max_confidence = std::max(r.max_confidence, double{c.confidence});
       }
       if (r.new_count + r.removed_count == 0) continue;
-      if (total >= (page - 1) * page_size && total < page * page_size) listed.push_back(std::move(r));
+      if (total >= (page - 1) * page_size && total < page * page_size)
+        listed.push_back(std::move(r));
       ++total;
     }
   }
@@ -289,20 +313,26 @@ Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence
 }
 
 FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::string& format,
-                                       const std::string& kind, double min_confidence, int64_t min_support) {
+                                       const std::string& kind, double min_confidence,
+                                       int64_t min_support) {
   const TileId tile = ParseTile(tile_text);
-  if (kind != "" && kind != "new" && kind != "removed") throw ApiError(ApiCode::kInvalidArgument, "kind must be new or removed");
+  if (kind != "" && kind != "new" && kind != "removed")
+    throw ApiError(ApiCode::kInvalidArgument, "kind must be new or removed");
   if ((format == "pcd" || format == "ply") && kind.empty()) {
-    throw ApiError(ApiCode::kInvalidArgument, "format " + format + " needs kind=new or kind=removed");
+    throw ApiError(ApiCode::kInvalidArgument,
+                   "format " + format + " needs kind=new or kind=removed");
   }
-  if (format != "json" && format != "pcd" && format != "ply") throw ApiError(ApiCode::kInvalidArgument, "format must be json, pcd or ply");
-  if (!(min_confidence >= 0 && min_confidence <= 1)) throw ApiError(ApiCode::kInvalidArgument, "min_confidence must be in [0, 1]");
+  if (format != "json" && format != "pcd" && format != "ply")
+    throw ApiError(ApiCode::kInvalidArgument, "format must be json, pcd or ply");
+  if (!(min_confidence >= 0 && min_confidence <= 1))
+    throw ApiError(ApiCode::kInvalidArgument, "min_confidence must be in [0, 1]");
   if (min_support < 0) throw ApiError(ApiCode::kInvalidArgument, "min_support must be >= 0");
   auto record = storage_->tiles().GetChanges(tile);
   if (!record) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no classification");
   const std::vector<ChangePoint> changes = DecodeChanges(record->changes);
   auto keep = [&](const ChangePoint& c) {
-    return c.confidence >= min_confidence && static_cast<int64_t>(c.supported_by.size()) >= min_support &&
+    return c.confidence >= min_confidence &&
+           static_cast<int64_t>(c.supported_by.size()) >= min_support &&
            (kind.empty() || (kind == "new") == (c.kind == ChangeKind::kNew));
   };
   if (format != "json") {
@@ -325,10 +355,13 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
            {"supported_by", c.supported_by}};
     (c.kind == ChangeKind::kNew ? fresh : gone).push_back(std::move(j));
   }
-  Json j{{"tile", tile_text},          {"prior_version", record->prior_version},
-         {"updated_at", IsoTime(record->updated_ms)}, {"params", Json::parse(record->params_json)},
+  Json j{{"tile", tile_text},
+         {"prior_version", record->prior_version},
+         {"updated_at", IsoTime(record->updated_ms)},
+         {"params", Json::parse(record->params_json)},
          {"confidence_formula", "(supported + 1) / (observed + 2)"},
-         {"new", fresh},               {"removed", gone}};
+         {"new", fresh},
+         {"removed", gone}};
   FilePayload p;
   const std::string text = j.dump();
   p.bytes.assign(text.begin(), text.end());
@@ -340,12 +373,14 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
 FilePayload MapService::GetObservedTile(const std::string& tile_text) {
   const TileId tile = ParseTile(tile_text);
   auto state = storage_->tiles().GetState(tile);
-  if (!state || state->sessions.empty()) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no observations");
+  if (!state || state->sessions.empty())
+    throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no observations");
   ObservedCache cache(*storage_);
   const ObservedArea& merged = cache.Merged(state->sessions, config_.pipeline.octree_resolution_m);
   // The merged octree covers the sessions' whole drives: cut it to this tile.
   const AxisAlignedBox b = TileGrid(config_.storage.tile_size_m).Bounds(tile);
-  const std::string bt = CropOctreeXY(merged.SerializeBinary(), b.min.x(), b.min.y(), b.max.x(), b.max.y());
+  const std::string bt =
+      CropOctreeXY(merged.SerializeBinary(), b.min.x(), b.min.y(), b.max.x(), b.max.y());
   FilePayload p;
   p.bytes.assign(bt.begin(), bt.end());
   p.content_type = "application/octet-stream";
@@ -356,45 +391,58 @@ FilePayload MapService::GetObservedTile(const std::string& tile_text) {
 // ---------------------------------------------------------------- admin jobs
 
 Json MapService::CreateJob(const Json& body) {
-  RejectUnknownFields(body, {"type", "tiles", "bbox", "min_confidence", "min_support", "params"}, "body");
+  RejectUnknownFields(body, {"type", "tiles", "bbox", "min_confidence", "min_support", "params"},
+                      "body");
   const std::string type_text = StringField(body, "type");
   const std::optional<JobType> type =
       ParseEnum<JobType>(type_text);  // commit: POST .../commit only
   Json params = Json::object();
-  if (body.contains("tiles") && body.contains("bbox")) throw ApiError(ApiCode::kInvalidArgument, "give tiles or bbox, not both");
+  if (body.contains("tiles") && body.contains("bbox"))
+    throw ApiError(ApiCode::kInvalidArgument, "give tiles or bbox, not both");
   if (body.contains("tiles")) {
     const Json& t = body["tiles"];
-    if (!t.is_array() || t.empty() || t.size() > 10000) throw ApiError(ApiCode::kInvalidArgument, "field 'tiles': expected 1..10000 tile ids");
+    if (!t.is_array() || t.empty() || t.size() > 10000)
+      throw ApiError(ApiCode::kInvalidArgument, "field 'tiles': expected 1..10000 tile ids");
     for (const Json& e : t) {
-      if (!e.is_string()) throw ApiError(ApiCode::kInvalidArgument, "field 'tiles': expected strings");
+      if (!e.is_string())
+        throw ApiError(ApiCode::kInvalidArgument, "field 'tiles': expected strings");
       ParseTile(e.get<std::string>());
     }
     params["tiles"] = t;
   }
   if (body.contains("bbox")) {
     const Json& b = body["bbox"];
-    if (!b.is_array() || b.size() != 4) throw ApiError(ApiCode::kInvalidArgument, "field 'bbox': expected [min_x, min_y, max_x, max_y]");
+    if (!b.is_array() || b.size() != 4)
+      throw ApiError(ApiCode::kInvalidArgument,
+                     "field 'bbox': expected [min_x, min_y, max_x, max_y]");
     std::string text;
     for (const Json& e : b) {
-      if (!e.is_number()) throw ApiError(ApiCode::kInvalidArgument, "field 'bbox': expected numbers");
+      if (!e.is_number())
+        throw ApiError(ApiCode::kInvalidArgument, "field 'bbox': expected numbers");
       text += (text.empty() ? "" : ",") + std::to_string(e.get<double>());
     }
     ParseBbox(text);
     params["bbox"] = b;
   }
   if (type == JobType::kRefresh) {
-    if (!params.contains("tiles") && !params.contains("bbox")) throw ApiError(ApiCode::kInvalidArgument, "refresh needs 'tiles' or 'bbox'");
-    if (body.contains("params")) throw ApiError(ApiCode::kInvalidArgument, "refresh takes no 'params'");
-    params["min_confidence"] = body.contains("min_confidence") ? NumberField(body, "min_confidence") : 0.5;
+    if (!params.contains("tiles") && !params.contains("bbox"))
+      throw ApiError(ApiCode::kInvalidArgument, "refresh needs 'tiles' or 'bbox'");
+    if (body.contains("params"))
+      throw ApiError(ApiCode::kInvalidArgument, "refresh takes no 'params'");
+    params["min_confidence"] =
+        body.contains("min_confidence") ? NumberField(body, "min_confidence") : 0.5;
     params["min_support"] = body.contains("min_support") ? IntField(body, "min_support") : 1;
-    if (!(params["min_confidence"].get<double>() >= 0 && params["min_confidence"].get<double>() <= 1)) {
+    if (!(params["min_confidence"].get<double>() >= 0 &&
+          params["min_confidence"].get<double>() <= 1)) {
       throw ApiError(ApiCode::kInvalidArgument, "field 'min_confidence': must be in [0, 1]");
     }
-    if (params["min_support"].get<int64_t>() < 0) throw ApiError(ApiCode::kInvalidArgument, "field 'min_support': must be >= 0");
+    if (params["min_support"].get<int64_t>() < 0)
+      throw ApiError(ApiCode::kInvalidArgument, "field 'min_support': must be >= 0");
     RequirePriorVersion();
   } else if (type == JobType::kReclassify) {
     if (body.contains("min_confidence") || body.contains("min_support")) {
-      throw ApiError(ApiCode::kInvalidArgument, "reclassify takes 'params', not min_confidence/min_support");
+      throw ApiError(ApiCode::kInvalidArgument,
+                     "reclassify takes 'params', not min_confidence/min_support");
     }
     const Json p = body.value("params", Json::object());
     ClassifyConfigFromJson(p, config_.classify);  // validate now, not in the job
@@ -424,7 +472,8 @@ Json MapService::GetJob(int64_t job_id) {
 
 Json MapService::CancelJob(int64_t job_id) {
   const auto before = storage_->jobs().Get(job_id);
-  if (!before) throw ApiError(ApiCode::kNotFound, "job " + std::to_string(job_id) + " does not exist");
+  if (!before)
+    throw ApiError(ApiCode::kNotFound, "job " + std::to_string(job_id) + " does not exist");
   if (before->state != JobState::kQueued && before->state != JobState::kRunning) {
     throw ApiError(ApiCode::kJobNotCancellable,
                    "job is " + std::string(ToString(before->state)) +

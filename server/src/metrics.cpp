@@ -28,7 +28,8 @@ std::string Metrics::Render(const std::vector<std::pair<JobState, int64_t>>& job
          << key.second << "\"} " << s.seconds << "\n";
     }
   }
-  os << "# HELP mapdelta_keyframes_ingested_total Keyframes stored (not counting identical retries).\n"
+  os << "# HELP mapdelta_keyframes_ingested_total Keyframes stored (not counting identical "
+        "retries).\n"
      << "# TYPE mapdelta_keyframes_ingested_total counter\n"
      << "mapdelta_keyframes_ingested_total " << keyframes_ingested.load() << "\n"
      << "# HELP mapdelta_keyframe_bytes_total Depth PNG bytes stored.\n"

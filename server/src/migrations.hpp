@@ -12,7 +12,7 @@ struct Migration {
   std::string_view sql;
 };
 
-const std::vector<Migration>& EmbeddedMigrations();  // sorted by version
+const std::vector<Migration>& EmbeddedMigrations();          // sorted by version
 const std::vector<Migration>& EmbeddedPostgresMigrations();  // migrations/postgres
 
 }  // namespace mapdelta::server

@@ -13,7 +13,8 @@ std::string CropOctreeXY(const std::string& octree_bt, double min_x, double min_
                          double max_y) {
   std::istringstream in(octree_bt);
   octomap::OcTree tree(0.1);
-  if (!tree.readBinary(in)) throw Error(ErrorCode::kParse, "observed octree: not an OctoMap binary tree");
+  if (!tree.readBinary(in))
+    throw Error(ErrorCode::kParse, "observed octree: not an OctoMap binary tree");
   const double res = tree.getResolution();
   octomap::OcTree out(res);
   // Voxel (ix, iy) covers [ix * res, (ix + 1) * res) in x (OctoMap keys are ix + 2^15), so
@@ -28,7 +29,9 @@ std::string CropOctreeXY(const std::string& octree_bt, double min_x, double min_
   // Only leaves near the box: OctoMap's bounding-box iterator, z over the whole key range.
   // Its corners must lie inside the key range (else OctoMap's iterator is invalid).
   const double reach = res * static_cast<double>(offset - 1);
-  const auto inside = [reach](double v) { return static_cast<float>(std::clamp(v, -reach, reach)); };
+  const auto inside = [reach](double v) {
+    return static_cast<float>(std::clamp(v, -reach, reach));
+  };
   const octomap::point3d lo(inside(min_x), inside(min_y), inside(-reach));
   const octomap::point3d hi(inside(max_x), inside(max_y), inside(reach));
   const unsigned max_depth = tree.getTreeDepth();
@@ -38,7 +41,8 @@ std::string CropOctreeXY(const std::string& octree_bt, double min_x, double min_
     const int64_t n = int64_t{1} << (max_depth - it.getDepth());
     const octomap::point3d c = it.getCoordinate();
     const double half = it.getSize() / 2;
-    const int64_t ix0 = std::llround((c.x() - half) / res), iy0 = std::llround((c.y() - half) / res);
+    const int64_t ix0 = std::llround((c.x() - half) / res),
+                  iy0 = std::llround((c.y() - half) / res);
     const int64_t iz0 = std::llround((c.z() - half) / res);
     for (int64_t i = 0; i < n; ++i) {
       for (int64_t j = 0; j < n; ++j) {
@@ -55,7 +59,8 @@ std::string CropOctreeXY(const std::string& octree_bt, double min_x, double min_
   out.updateInnerOccupancy();
   out.prune();
   std::ostringstream os;
-  if (!out.writeBinaryConst(os)) throw Error(ErrorCode::kInternal, "observed octree: binary write failed");
+  if (!out.writeBinaryConst(os))
+    throw Error(ErrorCode::kInternal, "observed octree: binary write failed");
   return os.str();
 }
 

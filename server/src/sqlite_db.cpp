@@ -6,9 +6,9 @@
 namespace mapdelta::server::sql {
 
 Db::Db(const std::string& path) : path_(path) {
-  const int rc = sqlite3_open_v2(path.c_str(), &db_,
-                                 SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
-                                 nullptr);
+  const int rc =
+      sqlite3_open_v2(path.c_str(), &db_,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX, nullptr);
   if (rc != SQLITE_OK) {
     const std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
     sqlite3_close(db_);
@@ -25,8 +25,8 @@ Db::~Db() {
 
 void Db::Fail(int rc, std::string_view what) const {
   const ErrorCode code = (rc == SQLITE_CONSTRAINT) ? ErrorCode::kConflict : ErrorCode::kIo;
-  throw Error(code, path_ + ": sqlite error " + std::to_string(rc) + " (" +
-                        sqlite3_errmsg(db_) + ") in: " + std::string(what.substr(0, 120)));
+  throw Error(code, path_ + ": sqlite error " + std::to_string(rc) + " (" + sqlite3_errmsg(db_) +
+                        ") in: " + std::string(what.substr(0, 120)));
 }
 
 void Db::Exec(std::string_view sql) {
@@ -45,8 +45,8 @@ int64_t Db::LastInsertId() const { return sqlite3_last_insert_rowid(db_); }
 int Db::Changes() const { return sqlite3_changes(db_); }
 
 Stmt::Stmt(Db& db, std::string_view sql) : db_(db), sql_(sql) {
-  const int rc = sqlite3_prepare_v2(db.handle(), sql_.c_str(), static_cast<int>(sql_.size()),
-                                    &stmt_, nullptr);
+  const int rc =
+      sqlite3_prepare_v2(db.handle(), sql_.c_str(), static_cast<int>(sql_.size()), &stmt_, nullptr);
   if (rc != SQLITE_OK) db_.Fail(rc, sql_);
 }
 
@@ -63,8 +63,8 @@ Stmt& Stmt::Bind(int index, double value) {
   return *this;
 }
 Stmt& Stmt::Bind(int index, std::string_view text) {
-  const int rc = sqlite3_bind_text(stmt_, index, text.data(), static_cast<int>(text.size()),
-                                   SQLITE_TRANSIENT);
+  const int rc =
+      sqlite3_bind_text(stmt_, index, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
   if (rc != SQLITE_OK) db_.Fail(rc, sql_);
   return *this;
 }

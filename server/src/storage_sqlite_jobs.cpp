@@ -91,8 +91,8 @@ std::optional<JobRecord> SqliteJobStore::ClaimNext(int64_t now_ms, int64_t lease
 
 bool SqliteJobStore::RenewLease(int64_t id, int64_t now_ms, int64_t lease_ms) {
   auto lock = Lock();
-  sql::Stmt s(db(),
-              "UPDATE jobs SET lease_expires_ms = ? WHERE id = ? AND lease_owner = ? AND state = ?");
+  sql::Stmt s(
+      db(), "UPDATE jobs SET lease_expires_ms = ? WHERE id = ? AND lease_owner = ? AND state = ?");
   s.Bind(1, now_ms + lease_ms)
       .Bind(2, id)
       .Bind(3, worker_id_)

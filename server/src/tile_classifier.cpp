@@ -120,7 +120,8 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
   out.record.tile = tile;
   out.record.prior_version = prior_version;
   out.record.params_json = "{\"th_ch_m\":" + std::to_string(params.th_ch_m) +
-                           ",\"min_voxel_support\":" + std::to_string(params.min_voxel_support) + "}";
+                           ",\"min_voxel_support\":" + std::to_string(params.min_voxel_support) +
+                           "}";
   std::set<int64_t> tile_sessions;
   if (auto state = storage.tiles().GetState(tile)) tile_sessions = state->sessions;
 

@@ -12,8 +12,8 @@ BruteForceCaster::BruteForceCaster(const Scene& s) {
   for (size_t oi = 0; oi < s.objects.size(); ++oi) {
     const auto& boxes = s.objects[oi].boxes;
     for (size_t bi = 0; bi < boxes.size(); ++bi) {
-      boxes_.push_back({boxes[bi].min.cast<float>(), boxes[bi].max.cast<float>(), static_cast<int>(oi),
-                        static_cast<int>(bi)});
+      boxes_.push_back({boxes[bi].min.cast<float>(), boxes[bi].max.cast<float>(),
+                        static_cast<int>(oi), static_cast<int>(bi)});
     }
   }
   ground_min_ = Eigen::Vector2f(static_cast<float>(-0.5 * s.extent_x - kGroundMargin),
@@ -52,8 +52,14 @@ bool BruteForceCaster::Intersect(const Eigen::Vector3f& o, const Eigen::Vector3f
       }
       float ta = (b.min[a] - o[a]) / d[a], tb = (b.max[a] - o[a]) / d[a];
       if (ta > tb) std::swap(ta, tb);
-      if (ta > t0) { t0 = ta; axis0 = a; }
-      if (tb < t1) { t1 = tb; axis1 = a; }
+      if (ta > t0) {
+        t0 = ta;
+        axis0 = a;
+      }
+      if (tb < t1) {
+        t1 = tb;
+        axis1 = a;
+      }
     }
     if (miss || t0 > t1) continue;
     float t = t0;

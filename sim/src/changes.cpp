@@ -11,7 +11,9 @@
 namespace mapdelta::sim {
 namespace {
 
-double Dist2D(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return (a - b).head<2>().norm(); }
+double Dist2D(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return (a - b).head<2>().norm();
+}
 
 struct ChangePlan {
   size_t lot[2];
@@ -19,14 +21,16 @@ struct ChangePlan {
 };
 
 ChangePlan Plan(const Scene& s, uint64_t seed) {
-  if (s.empty_lots.size() < 2) throw Error(ErrorCode::kInvalidArgument, "scene has fewer than 2 empty lots");
+  if (s.empty_lots.size() < 2)
+    throw Error(ErrorCode::kInvalidArgument, "scene has fewer than 2 empty lots");
   Rng rng(HashCombine(seed, 0xc4a9e));
   ChangePlan p{};
   // Prefer lots near the centre: trajectories of the short presets start there.
   std::vector<size_t> order(s.empty_lots.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return s.empty_lots[a].area.Center().head<2>().norm() < s.empty_lots[b].area.Center().head<2>().norm();
+    return s.empty_lots[a].area.Center().head<2>().norm() <
+           s.empty_lots[b].area.Center().head<2>().norm();
   });
   const size_t pool = std::min<size_t>(order.size(), 4);
   p.lot[0] = order[rng.Int(0, static_cast<int>(pool) - 1)];
@@ -46,7 +50,8 @@ ChangePlan Plan(const Scene& s, uint64_t seed) {
         p.removed_id[k] = o.id;
       }
     }
-    if (p.removed_id[k] < 0) throw Error(ErrorCode::kInvalidArgument, "scene has too few buildings");
+    if (p.removed_id[k] < 0)
+      throw Error(ErrorCode::kInvalidArgument, "scene has too few buildings");
   }
   return p;
 }
@@ -54,7 +59,8 @@ ChangePlan Plan(const Scene& s, uint64_t seed) {
 }  // namespace
 
 ChangedScene MakeChangedScene(const Scene& original, int which, uint64_t seed) {
-  if (which != 1 && which != 2) throw Error(ErrorCode::kInvalidArgument, "changed scene must be 1 or 2");
+  if (which != 1 && which != 2)
+    throw Error(ErrorCode::kInvalidArgument, "changed scene must be 1 or 2");
   const ChangePlan plan = Plan(original, seed);
   const int k = which - 1;
   ChangedScene out;
@@ -62,7 +68,8 @@ ChangedScene MakeChangedScene(const Scene& original, int which, uint64_t seed) {
   out.scene.name = "S" + std::to_string(which);
   // 1. Remove the planned building.
   auto& objs = out.scene.objects;
-  auto it = std::find_if(objs.begin(), objs.end(), [&](const Object& o) { return o.id == plan.removed_id[k]; });
+  auto it = std::find_if(objs.begin(), objs.end(),
+                         [&](const Object& o) { return o.id == plan.removed_id[k]; });
   out.changes.push_back({"removed", *it});
   objs.erase(it);
   // 2. Add a building on the planned lot: a plain box, tall enough to be seen from 15 m up.
@@ -87,7 +94,8 @@ ChangedScene MakeChangedScene(const Scene& original, int which, uint64_t seed) {
   return out;
 }
 
-std::vector<Object> MakeMirrors(Scene* scene, const Box& removed, const Eigen::Vector2d& route_point) {
+std::vector<Object> MakeMirrors(Scene* scene, const Box& removed,
+                                const Eigen::Vector2d& route_point) {
   std::vector<Object> mirrors;
   Object ground;
   ground.kind = "mirror";
@@ -115,7 +123,8 @@ std::vector<Object> MakeMirrors(Scene* scene, const Box& removed, const Eigen::V
         best = d;
         wall = b;
         axis = dx >= dy ? 0 : 1;
-        sign = axis == 0 ? (route_point.x() > b.max.x() ? 1 : -1) : (route_point.y() > b.max.y() ? 1 : -1);
+        sign = axis == 0 ? (route_point.x() > b.max.x() ? 1 : -1)
+                         : (route_point.y() > b.max.y() ? 1 : -1);
       }
     }
   }

@@ -33,7 +33,9 @@ class BoxIndex {
     const auto it = cells_.find(Key(x, y));
     if (it == cells_.end()) return false;
     for (const Box* b : it->second) {
-      if (b->min.z() <= 1e-6 && x > b->min.x() && x < b->max.x() && y > b->min.y() && y < b->max.y()) return true;
+      if (b->min.z() <= 1e-6 && x > b->min.x() && x < b->max.x() && y > b->min.y() &&
+          y < b->max.y())
+        return true;
     }
     return false;
   }
@@ -41,7 +43,8 @@ class BoxIndex {
  private:
   static constexpr double kCell = 8.0;
   static int64_t Key(double x, double y) {
-    return (static_cast<int64_t>(std::floor(x / kCell)) << 32) ^ (static_cast<int64_t>(std::floor(y / kCell)) & 0xffffffff);
+    return (static_cast<int64_t>(std::floor(x / kCell)) << 32) ^
+           (static_cast<int64_t>(std::floor(y / kCell)) & 0xffffffff);
   }
   void Add(const Object& o) {
     for (const Box& b : o.boxes) {
@@ -56,8 +59,8 @@ class BoxIndex {
 };
 
 // Samples one face (axis `axis` fixed at `value`) of box b on a grid of step h.
-void SampleFace(const Box& b, int axis, double value, double h, const std::vector<const Box*>& others,
-                PointCloud* out) {
+void SampleFace(const Box& b, int axis, double value, double h,
+                const std::vector<const Box*>& others, PointCloud* out) {
   const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
   // Only boxes overlapping this face can bury part of it.
   std::vector<const Box*> near;
@@ -100,13 +103,15 @@ PointCloud SampleSceneCloud(const Scene& s, double leaf) {
   const BoxIndex index(s, nullptr);
   PointCloud result;
   // Ground in strips of whole voxels, downsampled strip by strip to bound memory.
-  const double x0 = -0.5 * s.extent_x, x1 = 0.5 * s.extent_x, y0 = -0.5 * s.extent_y, y1 = 0.5 * s.extent_y;
+  const double x0 = -0.5 * s.extent_x, x1 = 0.5 * s.extent_x, y0 = -0.5 * s.extent_y,
+               y1 = 0.5 * s.extent_y;
   const double strip = leaf * std::ceil(10.0 / leaf);
   for (double sy = std::floor(y0 / strip) * strip; sy < y1; sy += strip) {
     PointCloud dense;
     for (double y = std::max(sy, y0); y < std::min(sy + strip, y1); y += h) {
       for (double x = x0; x < x1; x += h) {
-        if (!index.UnderSomething(x, y)) dense.emplace_back(static_cast<float>(x), static_cast<float>(y), 0.f);
+        if (!index.UnderSomething(x, y))
+          dense.emplace_back(static_cast<float>(x), static_cast<float>(y), 0.f);
       }
     }
     const PointCloud down = VoxelDownsample(dense, static_cast<float>(leaf));

@@ -20,20 +20,29 @@ NoiseParams NoiseFor(NoiseLevel level) {
 
 const char* ToString(NoiseLevel level) {
   switch (level) {
-    case NoiseLevel::kNone: return "none";
-    case NoiseLevel::kSmall: return "small";
-    case NoiseLevel::kBig: return "big";
-    case NoiseLevel::kEuroc: return "euroc";
+    case NoiseLevel::kNone:
+      return "none";
+    case NoiseLevel::kSmall:
+      return "small";
+    case NoiseLevel::kBig:
+      return "big";
+    case NoiseLevel::kEuroc:
+      return "euroc";
   }
   return "?";
 }
 
 bool ParseNoiseLevel(const std::string& text, NoiseLevel* level) {
-  if (text == "none") *level = NoiseLevel::kNone;
-  else if (text == "small") *level = NoiseLevel::kSmall;
-  else if (text == "big") *level = NoiseLevel::kBig;
-  else if (text == "euroc") *level = NoiseLevel::kEuroc;
-  else return false;
+  if (text == "none")
+    *level = NoiseLevel::kNone;
+  else if (text == "small")
+    *level = NoiseLevel::kSmall;
+  else if (text == "big")
+    *level = NoiseLevel::kBig;
+  else if (text == "euroc")
+    *level = NoiseLevel::kEuroc;
+  else
+    return false;
   return true;
 }
 
@@ -83,7 +92,8 @@ SimConfig PresetConfig(const std::string& name) {
     c.sequences = {"S1_01"};
     return c;
   }
-  throw Error(ErrorCode::kInvalidArgument, "unknown preset '" + name + "' (expected tiny, paper or euroc)");
+  throw Error(ErrorCode::kInvalidArgument,
+              "unknown preset '" + name + "' (expected tiny, paper or euroc)");
 }
 
 void Validate(const SimConfig& c) {
@@ -94,7 +104,8 @@ void Validate(const SimConfig& c) {
   auto pos = [](double v) { return std::isfinite(v) && v > 0; };
   check(pos(c.extent_x) && pos(c.extent_y), "extent_x/extent_y must be > 0");
   check(pos(c.block_size) && pos(c.street_width), "block_size/street_width must be > 0");
-  check(c.extent_x >= c.block_size + 2 * c.street_width && c.extent_y >= c.block_size + 2 * c.street_width,
+  check(c.extent_x >= c.block_size + 2 * c.street_width &&
+            c.extent_y >= c.block_size + 2 * c.street_width,
         "extent must hold at least one block with streets around it");
   check(pos(c.min_height) && c.max_height >= c.min_height, "need 0 < min_height <= max_height");
   check(c.small_objects >= 0, "small_objects must be >= 0");
@@ -116,7 +127,9 @@ void Validate(const SimConfig& c) {
   for (const auto& s : c.sequences) {
     const bool known = s == "S1_01" || s == "S1_02" || s == "S2_01" || s == "S2_02" ||
                        s == "S1_mirror" || s == "S1_dark";
-    if (!known) check(false, ("unknown sequence '" + s + "' (S1_01 S1_02 S2_01 S2_02 S1_mirror S1_dark)").c_str());
+    if (!known)
+      check(false,
+            ("unknown sequence '" + s + "' (S1_01 S1_02 S2_01 S2_02 S1_mirror S1_dark)").c_str());
   }
   if (!bad.empty()) throw Error(ErrorCode::kInvalidArgument, "invalid sim config: " + bad);
 }

@@ -40,14 +40,22 @@ nlohmann::json BoxJson(const Box& b) {
 
 const char* MaterialName(Material m) {
   switch (m) {
-    case Material::kBrick: return "brick";
-    case Material::kPlaster: return "plaster";
-    case Material::kConcrete: return "concrete";
-    case Material::kCar: return "car";
-    case Material::kTrunk: return "trunk";
-    case Material::kFoliage: return "foliage";
-    case Material::kMetal: return "metal";
-    case Material::kMirror: return "mirror";
+    case Material::kBrick:
+      return "brick";
+    case Material::kPlaster:
+      return "plaster";
+    case Material::kConcrete:
+      return "concrete";
+    case Material::kCar:
+      return "car";
+    case Material::kTrunk:
+      return "trunk";
+    case Material::kFoliage:
+      return "foliage";
+    case Material::kMetal:
+      return "metal";
+    case Material::kMirror:
+      return "mirror";
   }
   return "?";
 }
@@ -55,7 +63,10 @@ const char* MaterialName(Material m) {
 nlohmann::json ObjectJson(const Object& o) {
   nlohmann::json boxes = nlohmann::json::array();
   for (const Box& b : o.boxes) boxes.push_back(BoxJson(b));
-  return {{"id", o.id}, {"kind", o.kind}, {"material", MaterialName(o.material)}, {"bounds", BoxJson(o.Bounds())},
+  return {{"id", o.id},
+          {"kind", o.kind},
+          {"material", MaterialName(o.material)},
+          {"bounds", BoxJson(o.Bounds())},
           {"boxes", boxes}};
 }
 
@@ -75,32 +86,41 @@ SE3 BodyToCam0() {
   return T;
 }
 
-void WriteCameraYaml(const std::string& path, const PinholeCamera& cam, double rate_hz, const SE3& T_body_cam,
-                     const std::string& comment, const std::array<double, 4>& radtan) {
+void WriteCameraYaml(const std::string& path, const PinholeCamera& cam, double rate_hz,
+                     const SE3& T_body_cam, const std::string& comment,
+                     const std::array<double, 4>& radtan) {
   std::string coeffs = "[0.0, 0.0, 0.0, 0.0]";
   if (radtan != std::array<double, 4>{0, 0, 0, 0}) {
-    coeffs = "[" + Num(radtan[0]) + ", " + Num(radtan[1]) + ", " + Num(radtan[2]) + ", " + Num(radtan[3]) + "]";
+    coeffs = "[" + Num(radtan[0]) + ", " + Num(radtan[1]) + ", " + Num(radtan[2]) + ", " +
+             Num(radtan[3]) + "]";
   }
   std::ofstream out = Open(path);
   out << "# General sensor definitions.\nsensor_type: camera\ncomment: " << comment << "\n\n"
       << "# Sensor extrinsics wrt. the body-frame.\n"
       << MatrixYaml(T_body_cam) << "\n# Camera specific definitions.\nrate_hz: " << Num(rate_hz)
-      << "\nresolution: [" << cam.width << ", " << cam.height << "]\ncamera_model: pinhole\nintrinsics: ["
-      << Num(cam.fx) << ", " << Num(cam.fy) << ", " << Num(cam.cx) << ", " << Num(cam.cy)
-      << "] #fu, fv, cu, cv\ndistortion_model: radial-tangential\ndistortion_coefficients: " << coeffs << "\n";
+      << "\nresolution: [" << cam.width << ", " << cam.height
+      << "]\ncamera_model: pinhole\nintrinsics: [" << Num(cam.fx) << ", " << Num(cam.fy) << ", "
+      << Num(cam.cx) << ", " << Num(cam.cy)
+      << "] #fu, fv, cu, cv\ndistortion_model: radial-tangential\ndistortion_coefficients: "
+      << coeffs << "\n";
   Close(out, path);
 }
 
 void WriteImuYaml(const std::string& path, double rate_hz, const NoiseParams& n) {
   std::ofstream out = Open(path);
-  out << "# General sensor definitions.\nsensor_type: imu\ncomment: mapdelta-sim IMU (body frame x forward, y left, z up)\n\n"
+  out << "# General sensor definitions.\nsensor_type: imu\ncomment: mapdelta-sim IMU (body frame x "
+         "forward, y left, z up)\n\n"
       << "# Sensor extrinsics wrt. the body-frame.\n"
       << MatrixYaml(SE3::Identity()) << "rate_hz: " << Num(rate_hz) << "\n\n"
       << "# inertial sensor noise model parameters (static), continuous-time densities\n"
-      << "gyroscope_noise_density: " << Num(n.gyro_noise_density) << "     # [ rad / s / sqrt(Hz) ]\n"
-      << "gyroscope_random_walk: " << Num(n.gyro_random_walk) << "       # [ rad / s^2 / sqrt(Hz) ]\n"
-      << "accelerometer_noise_density: " << Num(n.accel_noise_density) << " # [ m / s^2 / sqrt(Hz) ]\n"
-      << "accelerometer_random_walk: " << Num(n.accel_random_walk) << "   # [ m / s^3 / sqrt(Hz) ]\n";
+      << "gyroscope_noise_density: " << Num(n.gyro_noise_density)
+      << "     # [ rad / s / sqrt(Hz) ]\n"
+      << "gyroscope_random_walk: " << Num(n.gyro_random_walk)
+      << "       # [ rad / s^2 / sqrt(Hz) ]\n"
+      << "accelerometer_noise_density: " << Num(n.accel_noise_density)
+      << " # [ m / s^2 / sqrt(Hz) ]\n"
+      << "accelerometer_random_walk: " << Num(n.accel_random_walk)
+      << "   # [ m / s^3 / sqrt(Hz) ]\n";
   Close(out, path);
 }
 
@@ -124,11 +144,14 @@ void WriteImuCsv(const std::string& path, const std::vector<ImuSample>& imu) {
   Close(out, path);
 }
 
-void WriteGroundTruthCsv(const std::string& path, const SplineTrajectory& traj, const std::vector<ImuSample>& imu,
-                         int64_t t0_ns, const SE3& T_vehicle_body) {
+void WriteGroundTruthCsv(const std::string& path, const SplineTrajectory& traj,
+                         const std::vector<ImuSample>& imu, int64_t t0_ns,
+                         const SE3& T_vehicle_body) {
   std::ofstream out = Open(path);
-  out << "#timestamp,p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z [],"
-         "v_RS_R_x [m s^-1],v_RS_R_y [m s^-1],v_RS_R_z [m s^-1],b_w_RS_S_x [rad s^-1],b_w_RS_S_y [rad s^-1],"
+  out << "#timestamp,p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z "
+         "[],"
+         "v_RS_R_x [m s^-1],v_RS_R_y [m s^-1],v_RS_R_z [m s^-1],b_w_RS_S_x [rad s^-1],b_w_RS_S_y "
+         "[rad s^-1],"
          "b_w_RS_S_z [rad s^-1],b_a_RS_S_x [m s^-2],b_a_RS_S_y [m s^-2],b_a_RS_S_z [m s^-2]\n";
   Eigen::Quaterniond prev = Eigen::Quaterniond::Identity();
   for (const ImuSample& s : imu) {
@@ -147,7 +170,8 @@ void WriteGroundTruthCsv(const std::string& path, const SplineTrajectory& traj, 
   Close(out, path);
 }
 
-void WriteObjectsJson(const std::string& path, const Scene& scene, const std::vector<Change>& changes) {
+void WriteObjectsJson(const std::string& path, const Scene& scene,
+                      const std::vector<Change>& changes) {
   nlohmann::json objects = nlohmann::json::array();
   for (const Object& o : scene.objects) objects.push_back(ObjectJson(o));
   nlohmann::json ch = nlohmann::json::array();
@@ -156,18 +180,21 @@ void WriteObjectsJson(const std::string& path, const Scene& scene, const std::ve
     j["type"] = c.type;
     ch.push_back(j);
   }
-  const nlohmann::json doc = {{"scene", scene.name},
-                              {"frame", "map (z up, metres)"},
-                              {"extent", {scene.extent_x, scene.extent_y}},
-                              {"streets", {{"xs", scene.streets.xs}, {"ys", scene.streets.ys}, {"width", scene.streets.width}}},
-                              {"objects", objects},
-                              {"changes", ch}};
+  const nlohmann::json doc = {
+      {"scene", scene.name},
+      {"frame", "map (z up, metres)"},
+      {"extent", {scene.extent_x, scene.extent_y}},
+      {"streets",
+       {{"xs", scene.streets.xs}, {"ys", scene.streets.ys}, {"width", scene.streets.width}}},
+      {"objects", objects},
+      {"changes", ch}};
   std::ofstream out = Open(path);
   out << doc.dump(1) << '\n';
   Close(out, path);
 }
 
-void WriteGreyPng(const std::string& path, int width, int height, const std::vector<uint8_t>& pixels) {
+void WriteGreyPng(const std::string& path, int width, int height,
+                  const std::vector<uint8_t>& pixels) {
   const cv::Mat img(height, width, CV_8UC1, const_cast<uint8_t*>(pixels.data()));
   bool ok = false;
   try {

@@ -34,9 +34,9 @@ struct FaceDef {
   int a, b, c, d;
   float nx, ny, nz;
 };
-constexpr FaceDef kFaces[6] = {
-    {0, 4, 6, 2, -1, 0, 0}, {1, 3, 7, 5, 1, 0, 0}, {0, 1, 5, 4, 0, -1, 0},
-    {2, 6, 7, 3, 0, 1, 0},  {0, 2, 3, 1, 0, 0, -1}, {4, 5, 7, 6, 0, 0, 1}};
+constexpr FaceDef kFaces[6] = {{0, 4, 6, 2, -1, 0, 0}, {1, 3, 7, 5, 1, 0, 0},
+                               {0, 1, 5, 4, 0, -1, 0}, {2, 6, 7, 3, 0, 1, 0},
+                               {0, 2, 3, 1, 0, 0, -1}, {4, 5, 7, 6, 0, 0, 1}};
 
 void Check(RTCDevice device, const char* what) {
   const RTCError e = rtcGetDeviceError(device);
@@ -68,7 +68,8 @@ EmbreeCaster::EmbreeCaster(const Scene& s) : impl_(std::make_unique<Impl>()) {
         vertices.push_back(static_cast<float>((k & 4) ? boxes[bi].max.z() : boxes[bi].min.z()));
       }
       for (const FaceDef& f : kFaces) {
-        const unsigned tri[6] = {base + f.a, base + f.b, base + f.c, base + f.a, base + f.c, base + f.d};
+        const unsigned tri[6] = {base + f.a, base + f.b, base + f.c,
+                                 base + f.a, base + f.c, base + f.d};
         indices.insert(indices.end(), tri, tri + 6);
         for (int t = 0; t < 2; ++t) {
           impl_->prims.push_back({static_cast<int>(oi), static_cast<int>(bi), {f.nx, f.ny, f.nz}});
@@ -78,10 +79,10 @@ EmbreeCaster::EmbreeCaster(const Scene& s) : impl_(std::make_unique<Impl>()) {
   }
   if (!indices.empty()) {
     RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                           3 * sizeof(float), vertices.size() / 3));
-    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                              3 * sizeof(unsigned), indices.size() / 3));
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), vertices.size() / 3));
+    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), indices.size() / 3));
     Check(impl_->device, "allocating box buffers");
     std::copy(vertices.begin(), vertices.end(), vb);
     std::copy(indices.begin(), indices.end(), ib);
@@ -95,10 +96,10 @@ EmbreeCaster::EmbreeCaster(const Scene& s) : impl_(std::make_unique<Impl>()) {
     const float y0 = static_cast<float>(-0.5 * s.extent_y - kGroundMargin);
     const float y1 = static_cast<float>(0.5 * s.extent_y + kGroundMargin);
     RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(
-        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4));
-    auto* ib = static_cast<unsigned*>(
-        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), 2));
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4));
+    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), 2));
     Check(impl_->device, "allocating ground buffers");
     const float v[12] = {x0, y0, 0, x1, y0, 0, x1, y1, 0, x0, y1, 0};
     const unsigned i[6] = {0, 1, 2, 0, 2, 3};
@@ -114,13 +115,17 @@ EmbreeCaster::EmbreeCaster(const Scene& s) : impl_(std::make_unique<Impl>()) {
 
 EmbreeCaster::~EmbreeCaster() = default;
 
-bool EmbreeCaster::Intersect(const Eigen::Vector3f& o, const Eigen::Vector3f& d, float tnear, float tfar,
-                             Hit* hit) const {
+bool EmbreeCaster::Intersect(const Eigen::Vector3f& o, const Eigen::Vector3f& d, float tnear,
+                             float tfar, Hit* hit) const {
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRayHit rh{};
-  rh.ray.org_x = o.x(); rh.ray.org_y = o.y(); rh.ray.org_z = o.z();
-  rh.ray.dir_x = d.x(); rh.ray.dir_y = d.y(); rh.ray.dir_z = d.z();
+  rh.ray.org_x = o.x();
+  rh.ray.org_y = o.y();
+  rh.ray.org_z = o.z();
+  rh.ray.dir_x = d.x();
+  rh.ray.dir_y = d.y();
+  rh.ray.dir_z = d.z();
   rh.ray.tnear = tnear;
   rh.ray.tfar = tfar;
   rh.ray.mask = 0xffffffffu;
@@ -146,8 +151,12 @@ bool EmbreeCaster::Occluded(const Eigen::Vector3f& o, const Eigen::Vector3f& d, 
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRay ray{};
-  ray.org_x = o.x(); ray.org_y = o.y(); ray.org_z = o.z();
-  ray.dir_x = d.x(); ray.dir_y = d.y(); ray.dir_z = d.z();
+  ray.org_x = o.x();
+  ray.org_y = o.y();
+  ray.org_z = o.z();
+  ray.dir_x = d.x();
+  ray.dir_y = d.y();
+  ray.dir_z = d.z();
   ray.tnear = tnear;
   ray.tfar = tfar;
   ray.mask = 0xffffffffu;

@@ -43,7 +43,8 @@ void WriteScene(const SimConfig& c, const Scene& scene, const Scene& original,
   // Ground truth of the change itself: surfaces of the added / removed buildings.
   for (const Change& ch : changes) {
     const Scene& where = ch.type == "removed" ? original : scene;
-    WriteCloud((dir / (ch.type + ".pcd")).string(), SampleObjectCloud(where, ch.object, c.cloud_leaf));
+    WriteCloud((dir / (ch.type + ".pcd")).string(),
+               SampleObjectCloud(where, ch.object, c.cloud_leaf));
   }
 }
 
@@ -78,18 +79,26 @@ Scenes BuildScenes(const SimConfig& c) {
 
 SequencePlan PlanSequence(const SimConfig& c, const Scenes& scenes, const std::string& name) {
   const bool s2 = name.rfind("S2", 0) == 0;
-  SequencePlan plan{name, s2 ? &scenes.s2 : &scenes.s1, "normal", c.height_01,
-                    SplineTrajectory({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}}, 1.0), 0, 0};
+  SequencePlan plan{name,
+                    s2 ? &scenes.s2 : &scenes.s1,
+                    "normal",
+                    c.height_01,
+                    SplineTrajectory({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}}, 1.0),
+                    0,
+                    0};
   if (name.size() >= 3 && name.substr(name.size() - 3) == "_02") plan.height = c.height_02;
   if (name == "S1_mirror") plan.variant = "mirror";
   if (name == "S1_dark") plan.variant = "dark";
   // Fly past the removed building first, then the added one. Mirror/dark reuse S1_01's route.
   std::vector<Eigen::Vector2d> targets;
-  for (const Change& ch : plan.scene->changes) targets.push_back(ch.object.Bounds().Center().head<2>());
-  const uint64_t route_seed = HashCombine(c.seed, (s2 ? 2 : 1) * 10 + (plan.height == c.height_02 ? 2 : 1));
+  for (const Change& ch : plan.scene->changes)
+    targets.push_back(ch.object.Bounds().Center().head<2>());
+  const uint64_t route_seed =
+      HashCombine(c.seed, (s2 ? 2 : 1) * 10 + (plan.height == c.height_02 ? 2 : 1));
   const double speed = c.length_m / c.duration_s;
   // Extra route length: the spline needs three knots beyond the end.
-  const auto route = PlanRoute(plan.scene->scene.streets, targets, c.length_m + 4 * c.spline_spacing, route_seed);
+  const auto route =
+      PlanRoute(plan.scene->scene.streets, targets, c.length_m + 4 * c.spline_spacing, route_seed);
   plan.trajectory = MakeTrajectory(route, plan.height, c.spline_spacing, speed);
   plan.duration_s = std::min(c.duration_s, plan.trajectory.duration());
   plan.length_m = PathLength(plan.trajectory, plan.duration_s);
@@ -104,7 +113,8 @@ Scene RenderScene(const SequencePlan& plan) {
     Eigen::Vector2d near = plan.trajectory.Evaluate(0).p_map.head<2>();
     for (double t = 0; t <= plan.duration_s; t += 0.1) {
       const Eigen::Vector2d p = plan.trajectory.Evaluate(t).p_map.head<2>();
-      if ((p - removed.Center().head<2>()).norm() < (near - removed.Center().head<2>()).norm()) near = p;
+      if ((p - removed.Center().head<2>()).norm() < (near - removed.Center().head<2>()).norm())
+        near = p;
     }
     MakeMirrors(&scene, removed, near);
   }
@@ -112,35 +122,40 @@ Scene RenderScene(const SequencePlan& plan) {
   return scene;
 }
 
-void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::string& name, const std::string& out_dir,
-                      const ProgressFn& progress, size_t max_frames) {
+void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::string& name,
+                      const std::string& out_dir, const ProgressFn& progress, size_t max_frames) {
   const SequencePlan plan = PlanSequence(c, scenes, name);
   const Scene scene = RenderScene(plan);
   nlohmann::json mirrors = nlohmann::json::array();
   for (const Object& m : scene.objects) {
     if (m.kind != "mirror") continue;
     const Box b = m.Bounds();
-    mirrors.push_back({{"id", m.id}, {"min", {b.min.x(), b.min.y(), b.min.z()}}, {"max", {b.max.x(), b.max.y(), b.max.z()}}});
+    mirrors.push_back({{"id", m.id},
+                       {"min", {b.min.x(), b.min.y(), b.min.z()}},
+                       {"max", {b.max.x(), b.max.y(), b.max.z()}}});
   }
   const EmbreeCaster caster(scene);
   const NoiseParams noise = NoiseFor(c.noise);
 
   const fs::path mav = fs::path(out_dir) / "sequences" / name / "mav0";
-  for (const char* d : {"cam0/data", "cam1/data", "imu0", "state_groundtruth_estimate0"}) MakeDirs(mav / d);
+  for (const char* d : {"cam0/data", "cam1/data", "imu0", "state_groundtruth_estimate0"})
+    MakeDirs(mav / d);
   if (c.write_depth) MakeDirs(mav / "depth0" / "data");
 
   const SensorRig rig = MakeSensorRig(c);
   const SimCamera& cam0 = rig.cam[0];
   auto radtan = [](const SimCamera& sc) {
-    return std::array<double, 4>{sc.distortion.k1, sc.distortion.k2, sc.distortion.p1, sc.distortion.p2};
+    return std::array<double, 4>{sc.distortion.k1, sc.distortion.k2, sc.distortion.p1,
+                                 sc.distortion.p2};
   };
   WriteCameraYaml((mav / "cam0/sensor.yaml").string(), cam0.K, c.cam_rate_hz, cam0.T_body_cam,
                   "mapdelta-sim left camera", radtan(cam0));
-  WriteCameraYaml((mav / "cam1/sensor.yaml").string(), rig.cam[1].K, c.cam_rate_hz, rig.cam[1].T_body_cam,
-                  "mapdelta-sim right camera", radtan(rig.cam[1]));
+  WriteCameraYaml((mav / "cam1/sensor.yaml").string(), rig.cam[1].K, c.cam_rate_hz,
+                  rig.cam[1].T_body_cam, "mapdelta-sim right camera", radtan(rig.cam[1]));
   if (c.write_depth) {
     WriteCameraYaml((mav / "depth0/sensor.yaml").string(), cam0.K, c.cam_rate_hz, cam0.T_body_cam,
-                    "mapdelta-sim ground-truth depth of cam0 (16-bit PNG, millimetres, 0 = none)", radtan(cam0));
+                    "mapdelta-sim ground-truth depth of cam0 (16-bit PNG, millimetres, 0 = none)",
+                    radtan(cam0));
   }
   // Distorted lenses: every pixel's ray once per sequence (undistortion is iterative).
   std::vector<Eigen::Vector3f> rays[2];
@@ -152,7 +167,8 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
   size_t frames = static_cast<size_t>(std::floor(plan.duration_s * c.cam_rate_hz + 1e-9)) + 1;
   if (max_frames > 0) frames = std::min(frames, max_frames);
   std::vector<int64_t> stamps(frames);
-  for (size_t k = 0; k < frames; ++k) stamps[k] = SampleTimeNs(kT0Ns, static_cast<int64_t>(k), c.cam_rate_hz);
+  for (size_t k = 0; k < frames; ++k)
+    stamps[k] = SampleTimeNs(kT0Ns, static_cast<int64_t>(k), c.cam_rate_hz);
   const uint64_t seq_key = SequenceNoiseKey(c.seed, name);
   const RenderOptions ropt{c.shadows, 3};
   ParallelFor(frames, ThreadCount(c), name + " images", progress, [&](size_t k) {
@@ -165,10 +181,13 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
     thread_local DepthImage depth;
     for (int ci = 0; ci < 2; ++ci) {
       const PinholeCamera& K = rig.cam[ci].K;
-      RenderViewInto(scene, caster, K, poses[ci], ropt, &view, rays[ci].empty() ? nullptr : &rays[ci]);
+      RenderViewInto(scene, caster, K, poses[ci], ropt, &view,
+                     rays[ci].empty() ? nullptr : &rays[ci]);
       const std::string file = std::to_string(stamps[k]) + ".png";
-      ToGrey8Into(view, noise.image_sigma, HashCombine(seq_key, 2 * k + static_cast<size_t>(ci)), &grey);
-      WriteGreyPng((mav / (ci == 0 ? "cam0/data" : "cam1/data") / file).string(), K.width, K.height, grey);
+      ToGrey8Into(view, noise.image_sigma, HashCombine(seq_key, 2 * k + static_cast<size_t>(ci)),
+                  &grey);
+      WriteGreyPng((mav / (ci == 0 ? "cam0/data" : "cam1/data") / file).string(), K.width, K.height,
+                   grey);
       if (ci == 0 && c.write_depth) {
         depth.width = K.width;
         depth.height = K.height;
@@ -204,38 +223,59 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
   }
   WriteImuYaml((mav / "imu0/sensor.yaml").string(), c.imu_rate_hz, noise);
   WriteImuCsv((mav / "imu0/data.csv").string(), imu);
-  WriteGroundTruthCsv((mav / "state_groundtruth_estimate0/data.csv").string(), plan.trajectory, imu, kT0Ns,
-                      rig.T_vehicle_body);
+  WriteGroundTruthCsv((mav / "state_groundtruth_estimate0/data.csv").string(), plan.trajectory, imu,
+                      kT0Ns, rig.T_vehicle_body);
 
   double max_rate = 0;
   for (const ImuSample& s : imu) {
-    max_rate = std::max(max_rate, std::abs((rig.T_vehicle_body.linear() * (s.gyro - s.bias_gyro)).z()));
+    max_rate =
+        std::max(max_rate, std::abs((rig.T_vehicle_body.linear() * (s.gyro - s.bias_gyro)).z()));
   }
   nlohmann::json changes = nlohmann::json::array();
-  for (const Change& ch : plan.scene->changes) changes.push_back({{"type", ch.type}, {"id", ch.object.id}});
+  for (const Change& ch : plan.scene->changes)
+    changes.push_back({{"type", ch.type}, {"id", ch.object.id}});
   nlohmann::json info = {
-      {"sequence", name}, {"scene", plan.scene->scene.name}, {"variant", plan.variant},
-      {"noise", ToString(c.noise)}, {"seed", c.seed}, {"noise_seed", c.seed}, {"preset", c.preset},
-      {"height_m", plan.height}, {"length_m", plan.length_m}, {"duration_s", span},
-      {"t0_ns", kT0Ns}, {"cam_rate_hz", c.cam_rate_hz}, {"imu_rate_hz", c.imu_rate_hz},
+      {"sequence", name},
+      {"scene", plan.scene->scene.name},
+      {"variant", plan.variant},
+      {"noise", ToString(c.noise)},
+      {"seed", c.seed},
+      {"noise_seed", c.seed},
+      {"preset", c.preset},
+      {"height_m", plan.height},
+      {"length_m", plan.length_m},
+      {"duration_s", span},
+      {"t0_ns", kT0Ns},
+      {"cam_rate_hz", c.cam_rate_hz},
+      {"imu_rate_hz", c.imu_rate_hz},
       {"frames", frames},
-      {"baseline_m", rig.name == "ideal" ? c.baseline
-                                         : (rig.cam[0].T_body_cam.inverse() * rig.cam[1].T_body_cam).translation().norm()}, {"image_noise_sigma", noise.image_sigma},
-      {"max_yaw_rate_rad_s", max_rate}, {"changes", changes}, {"mirrors", mirrors},
+      {"baseline_m",
+       rig.name == "ideal"
+           ? c.baseline
+           : (rig.cam[0].T_body_cam.inverse() * rig.cam[1].T_body_cam).translation().norm()},
+      {"image_noise_sigma", noise.image_sigma},
+      {"max_yaw_rate_rad_s", max_rate},
+      {"changes", changes},
+      {"mirrors", mirrors},
       {"ground_truth_cloud", "scenes/" + plan.scene->scene.name + "/cloud.pcd"}};
   if (rig.name != "ideal") info["rig"] = rig.name;  // absent: the ideal rig (older datasets)
   std::ofstream out(fs::path(out_dir) / "sequences" / name / "info.json");
   out << info.dump(1) << '\n';
-  if (!out) throw Error(ErrorCode::kIo, (fs::path(out_dir) / "sequences" / name / "info.json").string() + ": write failed");
-  MD_LOG(kInfo, "sequence " << name << ": " << frames << " stereo frames, " << imu.size() << " IMU samples, "
-                            << plan.length_m << " m, max yaw rate " << max_rate << " rad/s");
+  if (!out)
+    throw Error(ErrorCode::kIo,
+                (fs::path(out_dir) / "sequences" / name / "info.json").string() + ": write failed");
+  MD_LOG(kInfo, "sequence " << name << ": " << frames << " stereo frames, " << imu.size()
+                            << " IMU samples, " << plan.length_m << " m, max yaw rate " << max_rate
+                            << " rad/s");
 }
 
 void GenerateDataset(const SimConfig& c, const std::string& out_dir, const ProgressFn& progress) {
   const Scenes scenes = BuildScenes(c);
   const fs::path root(out_dir);
   const std::pair<const Scene*, const std::vector<Change>*> list[3] = {
-      {&scenes.original, nullptr}, {&scenes.s1.scene, &scenes.s1.changes}, {&scenes.s2.scene, &scenes.s2.changes}};
+      {&scenes.original, nullptr},
+      {&scenes.s1.scene, &scenes.s1.changes},
+      {&scenes.s2.scene, &scenes.s2.changes}};
   const std::vector<Change> none;
   // The three scenes' clouds are independent files: sample them in parallel.
   ParallelFor(3, std::min(3, ThreadCount(c)), "scene clouds", progress, [&](size_t i) {

@@ -38,12 +38,14 @@ std::vector<ImuSample> SimulateCleanImu(const SplineTrajectory& traj, int64_t t0
   return out;
 }
 
-std::vector<ImuSample> AddImuNoise(const std::vector<ImuSample>& clean, double rate_hz, const NoiseParams& noise,
-                                   uint64_t seed) {
+std::vector<ImuSample> AddImuNoise(const std::vector<ImuSample>& clean, double rate_hz,
+                                   const NoiseParams& noise, uint64_t seed) {
   Rng rng(HashCombine(seed, 0x1a0));
   const double dt = 1.0 / rate_hz;
-  const double sg = noise.gyro_noise_density / std::sqrt(dt), sa = noise.accel_noise_density / std::sqrt(dt);
-  const double wg = noise.gyro_random_walk * std::sqrt(dt), wa = noise.accel_random_walk * std::sqrt(dt);
+  const double sg = noise.gyro_noise_density / std::sqrt(dt),
+               sa = noise.accel_noise_density / std::sqrt(dt);
+  const double wg = noise.gyro_random_walk * std::sqrt(dt),
+               wa = noise.accel_random_walk * std::sqrt(dt);
   auto gauss3 = [&rng] { return Eigen::Vector3d(rng.Gaussian(), rng.Gaussian(), rng.Gaussian()); };
   std::vector<ImuSample> out;
   out.reserve(clean.size());

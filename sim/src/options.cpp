@@ -35,25 +35,34 @@ std::string Fmt(double v) {
   return o.str();
 }
 
-#define MD_DOUBLE(field, text)                                                          \
-  Option{#field, text, [](const SimConfig& c) { return Fmt(c.field); },                 \
-         [](SimConfig& c, const std::string& s) { return ToDouble(s, &c.field); }}
-#define MD_INT(field, text)                                                             \
-  Option{#field, text, [](const SimConfig& c) { return std::to_string(c.field); },      \
+#define MD_DOUBLE(field, text)                                                                    \
+  Option {                                                                                        \
+#field, text,                                                                                 \
+        [](const SimConfig& c) { return Fmt(c.field); },                                          \
+                                                      [](SimConfig & c,                           \
+                                                         const std::string&                       \
+                                                             s) { return ToDouble(s, &c.field); } \
+  }
+#define MD_INT(field, text)                                                      \
+  Option {                                                                       \
+#field, text, [](const SimConfig& c) { return std::to_string(c.field); },      \
          [](SimConfig& c, const std::string& s) {                                        \
            long long v;                                                                  \
            if (!ToInt(s, &v) || v < -1000000000LL || v > 1000000000LL) return false;     \
            c.field = static_cast<int>(v);                                                \
            return true;                                                                  \
-         }}
-#define MD_BOOL(field, text)                                                            \
-  Option{#field, text + std::string(" (true/false)"),                                   \
+         } \
+  }
+#define MD_BOOL(field, text)                                                     \
+  Option {                                                                       \
+#field, text + std::string(" (true/false)"),                                   \
          [](const SimConfig& c) { return std::string(c.field ? "true" : "false"); },    \
          [](SimConfig& c, const std::string& s) {                                        \
            if (s != "true" && s != "false" && s != "1" && s != "0") return false;        \
            c.field = s == "true" || s == "1";                                            \
            return true;                                                                  \
-         }}
+         } \
+  }
 
 const std::vector<Option>& Options() {
   static const std::vector<Option> options = {
@@ -82,12 +91,14 @@ const std::vector<Option>& Options() {
                }
                return !c.sequences.empty();
              }},
-      Option{"rig", "sensors: ideal (the camera options below) | euroc (EuRoC MH_01 cameras, lens, IMU axes)",
-             [](const SimConfig& c) { return c.rig; },
-             [](SimConfig& c, const std::string& s) {
-               c.rig = s;
-               return s == "ideal" || s == "euroc";
-             }},
+      Option{
+          "rig",
+          "sensors: ideal (the camera options below) | euroc (EuRoC MH_01 cameras, lens, IMU axes)",
+          [](const SimConfig& c) { return c.rig; },
+          [](SimConfig& c, const std::string& s) {
+            c.rig = s;
+            return s == "ideal" || s == "euroc";
+          }},
       MD_INT(threads, "worker threads for rendering (0 = all cores)"),
       MD_DOUBLE(extent_x, "scene size along x [m]"),
       MD_DOUBLE(extent_y, "scene size along y [m]"),
@@ -112,7 +123,8 @@ const std::vector<Option>& Options() {
       MD_DOUBLE(duration_s, "trajectory duration [s]"),
       MD_DOUBLE(height_01, "flight height of *_01 sequences [m]"),
       MD_DOUBLE(height_02, "flight height of *_02 sequences [m]"),
-      MD_DOUBLE(spline_spacing, "trajectory B-spline control point spacing [m] (larger = smoother turns)"),
+      MD_DOUBLE(spline_spacing,
+                "trajectory B-spline control point spacing [m] (larger = smoother turns)"),
   };
   return options;
 }

@@ -52,7 +52,8 @@ float Trace(const Scene& s, const RayCaster& caster, const RenderOptions& opt, f
     const float dist = hit.t * d.norm();
     travelled += dist;
     const Eigen::Vector3f n = hit.normal;
-    const bool mirror = hit.object >= 0 && s.objects[static_cast<size_t>(hit.object)].material == Material::kMirror;
+    const bool mirror =
+        hit.object >= 0 && s.objects[static_cast<size_t>(hit.object)].material == Material::kMirror;
     if (mirror && bounce < opt.max_bounces) {
       const Eigen::Vector3f dn = d / d.norm();
       weight *= 0.85f;
@@ -85,8 +86,9 @@ RenderedView RenderView(const Scene& s, const RayCaster& caster, const PinholeCa
   return out;
 }
 
-void RenderViewInto(const Scene& s, const RayCaster& caster, const PinholeCamera& cam, const SE3& T_map_cam,
-                    const RenderOptions& opt, RenderedView* out_view, const std::vector<Eigen::Vector3f>* rays) {
+void RenderViewInto(const Scene& s, const RayCaster& caster, const PinholeCamera& cam,
+                    const SE3& T_map_cam, const RenderOptions& opt, RenderedView* out_view,
+                    const std::vector<Eigen::Vector3f>* rays) {
   RenderedView& out = *out_view;
   out.width = cam.width;
   out.height = cam.height;
@@ -100,9 +102,10 @@ void RenderViewInto(const Scene& s, const RayCaster& caster, const PinholeCamera
     for (int u = 0; u < cam.width; ++u) {
       const size_t i = static_cast<size_t>(v) * cam.width + u;
       // Unnormalized direction with z = 1 in the camera: the hit's ray parameter is its depth.
-      const Eigen::Vector3f dc = rays ? (*rays)[i]
-                                      : Eigen::Vector3f(static_cast<float>((u - cam.cx) / cam.fx),
-                                                        static_cast<float>((v - cam.cy) / cam.fy), 1.f);
+      const Eigen::Vector3f dc =
+          rays ? (*rays)[i]
+               : Eigen::Vector3f(static_cast<float>((u - cam.cx) / cam.fx),
+                                 static_cast<float>((v - cam.cy) / cam.fy), 1.f);
       if (dc.z() == 0.f) {  // outside the lens model's valid field
         out.intensity[i] = 0.f;
         out.depth[i] = 0.f;
@@ -123,18 +126,21 @@ std::vector<uint8_t> ToGrey8(const RenderedView& view, double sigma, uint64_t no
   return img;
 }
 
-void ToGrey8Into(const RenderedView& view, double sigma, uint64_t noise_key, std::vector<uint8_t>* out) {
+void ToGrey8Into(const RenderedView& view, double sigma, uint64_t noise_key,
+                 std::vector<uint8_t>* out) {
   // Quantize first, then add noise to the 8-bit value: the clean image is then a file
   // (a --noise none dataset) from which `mapdelta-sim renoise` makes the same noisy image.
   thread_local std::vector<uint8_t> clean;
   clean.resize(view.intensity.size());
   for (size_t i = 0; i < clean.size(); ++i) {
-    clean[i] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(static_cast<double>(view.intensity[i]), 0.0, 1.0)));
+    clean[i] = static_cast<uint8_t>(
+        std::lround(255.0 * std::clamp(static_cast<double>(view.intensity[i]), 0.0, 1.0)));
   }
   AddImageNoise(clean, sigma, noise_key, out);
 }
 
-void AddImageNoise(const std::vector<uint8_t>& clean, double sigma, uint64_t noise_key, std::vector<uint8_t>* out) {
+void AddImageNoise(const std::vector<uint8_t>& clean, double sigma, uint64_t noise_key,
+                   std::vector<uint8_t>* out) {
   std::vector<uint8_t>& img = *out;
   img.resize(clean.size());
   if (sigma <= 0) {

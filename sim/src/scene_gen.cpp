@@ -84,19 +84,33 @@ void AddSmallObjects(Rng& rng, const SimConfig& c, Scene* s) {
     const double kind = rng.Uniform();
     double off = 0, lx = 0, ly = 0, h = 0;  // lateral offset from the centre line, sizes
     if (kind < 0.45) {
-      o.kind = "car"; o.material = Material::kCar;
-      off = 0.5 * g.width - g.sidewalk - 1.3; lx = 4.4; ly = 1.8; h = 1.5;
+      o.kind = "car";
+      o.material = Material::kCar;
+      off = 0.5 * g.width - g.sidewalk - 1.3;
+      lx = 4.4;
+      ly = 1.8;
+      h = 1.5;
       o.albedo = static_cast<float>(rng.Uniform(0.15, 0.9));
     } else if (kind < 0.8) {
-      o.kind = "tree"; o.material = Material::kFoliage;
-      off = 0.5 * g.width - 0.5 * g.sidewalk; lx = ly = 0.4; h = rng.Uniform(2.5, 3.5);
+      o.kind = "tree";
+      o.material = Material::kFoliage;
+      off = 0.5 * g.width - 0.5 * g.sidewalk;
+      lx = ly = 0.4;
+      h = rng.Uniform(2.5, 3.5);
       o.albedo = 0.35f;
     } else if (kind < 0.93) {
-      o.kind = "lamp"; o.material = Material::kMetal;
-      off = 0.5 * g.width - 0.6; lx = ly = 0.25; h = 6.0; o.albedo = 0.45f;
+      o.kind = "lamp";
+      o.material = Material::kMetal;
+      off = 0.5 * g.width - 0.6;
+      lx = ly = 0.25;
+      h = 6.0;
+      o.albedo = 0.45f;
     } else {
-      o.kind = "kiosk"; o.material = Material::kPlaster;
-      off = 0.5 * g.width - 0.5 * g.sidewalk; lx = ly = 1.6; h = 2.6;
+      o.kind = "kiosk";
+      o.material = Material::kPlaster;
+      off = 0.5 * g.width - 0.5 * g.sidewalk;
+      lx = ly = 1.6;
+      h = 2.6;
       o.albedo = static_cast<float>(rng.Uniform(0.4, 0.8));
     }
     if (!along_x) std::swap(lx, ly);
@@ -168,8 +182,8 @@ Scene GenerateCity(const SimConfig& c, uint64_t seed) {
           const double lx0 = x0 + (x1 - x0) * a / nx, lx1 = x0 + (x1 - x0) * (a + 1) / nx;
           const double ly0 = y0 + (y1 - y0) * b / ny, ly1 = y0 + (y1 - y0) * (b + 1) / ny;
           if (rng.Chance(0.2)) {
-            s.empty_lots.push_back({MakeBox(lx0, ly0, lx1, ly1, 0.0), static_cast<int>(bi),
-                                    static_cast<int>(bj)});
+            s.empty_lots.push_back(
+                {MakeBox(lx0, ly0, lx1, ly1, 0.0), static_cast<int>(bi), static_cast<int>(bj)});
             continue;
           }
           Object o = MakeBuilding(rng, lx0, ly0, lx1, ly1, c);
@@ -188,9 +202,14 @@ Scene GenerateCity(const SimConfig& c, uint64_t seed) {
     const double lot_len = 0.5 * (c.block_size + c.street_width);
     SimConfig tall = c;  // a taller backdrop: upper half of the height range
     tall.min_height = 0.5 * (c.min_height + c.max_height);
-    struct Strip { double x0, y0, x1, y1; bool along_y; };
-    const Strip strips[4] = {{-ex, -ey, gx0, ey, true}, {gx1, -ey, ex, ey, true},
-                             {gx0, -ey, gx1, gy0, false}, {gx0, gy1, gx1, ey, false}};
+    struct Strip {
+      double x0, y0, x1, y1;
+      bool along_y;
+    };
+    const Strip strips[4] = {{-ex, -ey, gx0, ey, true},
+                             {gx1, -ey, ex, ey, true},
+                             {gx0, -ey, gx1, gy0, false},
+                             {gx0, gy1, gx1, ey, false}};
     for (const Strip& st : strips) {
       if ((st.along_y ? st.x1 - st.x0 : st.y1 - st.y0) < 6.0) continue;
       const double len = st.along_y ? st.y1 - st.y0 : st.x1 - st.x0;
@@ -213,11 +232,13 @@ Scene GenerateCity(const SimConfig& c, uint64_t seed) {
       throw Error(ErrorCode::kInvalidArgument, "scene too small for two changes: enlarge extent");
     }
     const Box b = it->Bounds();
-    s.empty_lots.push_back({MakeBox(b.min.x() - 1, b.min.y() - 1, b.max.x() + 1, b.max.y() + 1, 0), -1, -1});
+    s.empty_lots.push_back(
+        {MakeBox(b.min.x() - 1, b.min.y() - 1, b.max.x() + 1, b.max.y() + 1, 0), -1, -1});
     s.objects.erase(std::next(it).base());
   }
   AddSmallObjects(rng, c, &s);
-  MD_LOG(kDebug, "city: " << s.objects.size() << " objects, " << s.empty_lots.size() << " empty lots");
+  MD_LOG(kDebug,
+         "city: " << s.objects.size() << " objects, " << s.empty_lots.size() << " empty lots");
   return s;
 }
 

@@ -46,7 +46,8 @@ bool RadTan::Undistort(const Eigen::Vector2d& xd, Eigen::Vector2d* out) const {
 SensorRig MakeSensorRig(const SimConfig& c) {
   if (c.rig == "euroc") return EurocMh01Rig();
   if (c.rig != "ideal") {
-    throw Error(ErrorCode::kInvalidArgument, "unknown rig '" + c.rig + "' (expected ideal or euroc)");
+    throw Error(ErrorCode::kInvalidArgument,
+                "unknown rig '" + c.rig + "' (expected ideal or euroc)");
   }
   SensorRig rig;
   rig.name = "ideal";
@@ -69,7 +70,7 @@ SensorRig EurocMh01Rig() {
   // EuRoC MAV dataset, MH_01_easy mav0/cam0|cam1/sensor.yaml (VI-Sensor, MT9M034 cameras).
   SensorRig rig;
   rig.name = "euroc";
-  auto camera = [](double fx, double fy, double cx, double cy, RadTan d, const double (&T)[12]) {
+  auto camera = [](double fx, double fy, double cx, double cy, RadTan d, const double(&T)[12]) {
     SimCamera cam;
     cam.K.width = 752;
     cam.K.height = 480;
@@ -85,14 +86,16 @@ SensorRig EurocMh01Rig() {
     cam.T_body_cam.matrix() = M;  // verbatim: written back to sensor.yaml as published
     return cam;
   };
-  const double T0[12] = {0.0148655429818,  -0.999880929698, 0.00414029679422, -0.0216401454975,
-                         0.999557249008,   0.0149672133247, 0.025715529948,   -0.064676986768,
-                         -0.0257744366974, 0.00375618835797, 0.999660727178,  0.00981073058949};
+  const double T0[12] = {0.0148655429818,  -0.999880929698,  0.00414029679422, -0.0216401454975,
+                         0.999557249008,   0.0149672133247,  0.025715529948,   -0.064676986768,
+                         -0.0257744366974, 0.00375618835797, 0.999660727178,   0.00981073058949};
   const double T1[12] = {0.0125552670891,  -0.999755099723, 0.0182237714554, -0.0198435579556,
                          0.999598781151,   0.0130119051815, 0.0251588363115, 0.0453689425024,
                          -0.0253898008918, 0.0179005838253, 0.999517347078,  0.00786212447038};
-  rig.cam[0] = camera(458.654, 457.296, 367.215, 248.375, {-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05}, T0);
-  rig.cam[1] = camera(457.587, 456.134, 379.999, 255.238, {-0.28368365, 0.07451284, -0.00010473, -3.55590700e-05}, T1);
+  rig.cam[0] = camera(458.654, 457.296, 367.215, 248.375,
+                      {-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05}, T0);
+  rig.cam[1] = camera(457.587, 456.134, 379.999, 255.238,
+                      {-0.28368365, 0.07451284, -0.00010473, -3.55590700e-05}, T1);
   // EuRoC's IMU axes: x up, y right, z forward (its cameras look along IMU z with image x along
   // IMU y). In the vehicle's FLU axes: body x = up, body y = -left, body z = forward.
   rig.T_vehicle_body.linear() << 0, 0, 1, 0, -1, 0, 1, 0, 0;

@@ -7,7 +7,8 @@ namespace mapdelta::sim {
 namespace {
 
 inline uint32_t Hash32(int32_t x, int32_t y, uint32_t seed) {
-  uint32_t h = static_cast<uint32_t>(x) * 0x8da6b343u ^ static_cast<uint32_t>(y) * 0xd8163841u ^ seed * 0xcb1ab31fu;
+  uint32_t h = static_cast<uint32_t>(x) * 0x8da6b343u ^ static_cast<uint32_t>(y) * 0xd8163841u ^
+               seed * 0xcb1ab31fu;
   h ^= h >> 16;
   h *= 0x7feb352du;
   h ^= h >> 15;
@@ -23,7 +24,9 @@ inline float SmoothStep(float a, float b, float x) {
   return t * t * (3.f - 2.f * t);
 }
 // Weight of a feature with `freq` cycles/m at this footprint: 1 well below Nyquist, 0 above it.
-inline float Resolve(float freq, float footprint) { return 1.f - SmoothStep(0.2f, 0.5f, freq * footprint); }
+inline float Resolve(float freq, float footprint) {
+  return 1.f - SmoothStep(0.2f, 0.5f, freq * footprint);
+}
 // A per-cell random value that fades to `mean` once the cell is smaller than two pixels.
 inline float CellValue(int32_t cx, int32_t cy, uint32_t seed, float cell, float footprint) {
   return (Unit(Hash32(cx, cy, seed)) - 0.5f) * Resolve(1.f / cell, footprint);
@@ -65,8 +68,16 @@ float Ground(const Scene& s, float x, float y, float fp) {
   const StreetGrid& g = s.streets;
   const float hw = static_cast<float>(0.5 * g.width), road = hw - static_cast<float>(g.sidewalk);
   float dx = 1e9f, dy = 1e9f, sx = 0.f, sy = 0.f;  // distance and signed offset to the nearest line
-  for (double v : g.xs) if (std::abs(x - v) < dx) { dx = std::abs(x - static_cast<float>(v)); sx = x - static_cast<float>(v); }
-  for (double v : g.ys) if (std::abs(y - v) < dy) { dy = std::abs(y - static_cast<float>(v)); sy = y - static_cast<float>(v); }
+  for (double v : g.xs)
+    if (std::abs(x - v) < dx) {
+      dx = std::abs(x - static_cast<float>(v));
+      sx = x - static_cast<float>(v);
+    }
+  for (double v : g.ys)
+    if (std::abs(y - v) < dy) {
+      dy = std::abs(y - static_cast<float>(v));
+      sy = y - static_cast<float>(v);
+    }
   const bool in_x = x > g.xs.front() - hw && x < g.xs.back() + hw;
   const bool in_y = y > g.ys.front() - hw && y < g.ys.back() + hw;
   const bool street_y = dx < hw && in_y;  // street running along y
@@ -99,11 +110,13 @@ float Facade(const Object& o, float u, float v, float fp) {
     const int32_t row = Cell(v, bh);
     const float shift = (row & 1) ? 0.5f * bw : 0.f;
     const float mortar = std::max(Pulse(v, bh, 0.012f, fp), Pulse(u + shift, bw, 0.012f, fp));
-    wall = h * (1.f + 0.25f * CellValue(Cell(u + shift, bw), row, seed, bh, fp)) * (1.f - 0.3f * mortar);
+    wall = h * (1.f + 0.25f * CellValue(Cell(u + shift, bw), row, seed, bh, fp)) *
+           (1.f - 0.3f * mortar);
     wall *= 1.f + 0.5f * BandLimitedNoise(u, v, 0.4f, 4, 0.5f, fp, seed + 1);
   } else if (o.material == Material::kConcrete) {
     const float joint = std::max(Pulse(u, 1.5f, 0.03f, fp), Pulse(v, 1.6f, 0.03f, fp));
-    wall = h * (1.f + 0.35f * CellValue(Cell(u, 1.5f), Cell(v, 1.6f), seed, 1.5f, fp)) * (1.f - 0.4f * joint);
+    wall = h * (1.f + 0.35f * CellValue(Cell(u, 1.5f), Cell(v, 1.6f), seed, 1.5f, fp)) *
+           (1.f - 0.4f * joint);
     wall *= 1.f + 0.6f * BandLimitedNoise(u, v, 0.6f, 5, 0.6f, fp, seed + 1);
   } else {
     wall = h * (1.f + 0.8f * BandLimitedNoise(u, v, 0.5f, 6, 0.65f, fp, seed + 1));
@@ -121,7 +134,9 @@ float Facade(const Object& o, float u, float v, float fp) {
   const float cv = Pulse(v - sill, floor_h, wh, fp);
   const float frame_u = Pulse(u - 0.5f * (pitch - ww) + 0.08f, pitch, ww + 0.16f, fp);
   const float frame_v = Pulse(v - sill + 0.08f, floor_h, wh + 0.16f, fp);
-  const float glass = 0.10f + 0.22f * Unit(Hash32(Cell(u - 0.5f * (pitch - ww), pitch), Cell(v - sill, floor_h), seed + 7)) +
+  const float glass = 0.10f +
+                      0.22f * Unit(Hash32(Cell(u - 0.5f * (pitch - ww), pitch),
+                                          Cell(v - sill, floor_h), seed + 7)) +
                       0.08f * Clamp01((std::fmod(std::abs(v - sill), floor_h)) / wh);
   const float frame = 0.8f;
   float a = wall;
@@ -148,7 +163,8 @@ float BandLimitedNoise(float x, float y, float base_freq, int octaves, float gai
     const float w = Resolve(freq, footprint);
     norm += amp;
     if (w <= 0.f) break;  // higher octaves are even less resolvable
-    sum += amp * w * (ValueNoise(x * freq, y * freq, seed + 101u * static_cast<uint32_t>(k)) - 0.5f);
+    sum +=
+        amp * w * (ValueNoise(x * freq, y * freq, seed + 101u * static_cast<uint32_t>(k)) - 0.5f);
     amp *= gain;
     freq *= 2.03f;  // not exactly 2: octaves do not line up on lattice points
   }
@@ -169,10 +185,12 @@ float SurfaceAlbedo(const Scene& s, const Hit& hit, const Eigen::Vector3f& p, fl
     case Material::kBrick:
     case Material::kPlaster:
     case Material::kConcrete:
-      if (o.kind != "building") return Clamp01(o.albedo * (1.f + 0.7f * BandLimitedNoise(u, v, 1.f, 5, 0.6f, fp, seed)));
+      if (o.kind != "building")
+        return Clamp01(o.albedo * (1.f + 0.7f * BandLimitedNoise(u, v, 1.f, 5, 0.6f, fp, seed)));
       if (!vertical) {
         // Flat roof: gravel with a parapet band near the edges.
-        return Clamp01(0.42f + 0.35f * BandLimitedNoise(p.x(), p.y(), 0.3f, 7, 0.65f, fp, seed + 3));
+        return Clamp01(0.42f +
+                       0.35f * BandLimitedNoise(p.x(), p.y(), 0.3f, 7, 0.65f, fp, seed + 3));
       }
       return Clamp01(Facade(o, u, v, fp));
     case Material::kCar: {
@@ -181,8 +199,10 @@ float SurfaceAlbedo(const Scene& s, const Hit& hit, const Eigen::Vector3f& p, fl
       return Clamp01(body + (0.12f - body) * glass);
     }
     case Material::kFoliage:
-      if (hit.box == 0) return Clamp01(0.22f + 0.3f * BandLimitedNoise(u, v, 2.f, 4, 0.6f, fp, seed));  // trunk
-      return Clamp01(0.28f + 0.6f * BandLimitedNoise(vertical ? u : p.x(), vertical ? v : p.y(), 1.2f, 5, 0.75f, fp, seed));
+      if (hit.box == 0)
+        return Clamp01(0.22f + 0.3f * BandLimitedNoise(u, v, 2.f, 4, 0.6f, fp, seed));  // trunk
+      return Clamp01(0.28f + 0.6f * BandLimitedNoise(vertical ? u : p.x(), vertical ? v : p.y(),
+                                                     1.2f, 5, 0.75f, fp, seed));
     case Material::kTrunk:
       return Clamp01(0.22f + 0.3f * BandLimitedNoise(u, v, 2.f, 4, 0.6f, fp, seed));
     case Material::kMetal:

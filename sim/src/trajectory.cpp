@@ -26,8 +26,10 @@ MotionState SplineTrajectory::Evaluate(double t) const {
   const double s = std::clamp(t / dt_, 0.0, static_cast<double>(control_.size() - 3));
   const size_t i = std::min(static_cast<size_t>(s), control_.size() - 4);
   const double u = s - static_cast<double>(i), u2 = u * u, u3 = u2 * u;
-  const double b[4] = {(1 - u) * (1 - u) * (1 - u) / 6, (3 * u3 - 6 * u2 + 4) / 6, (-3 * u3 + 3 * u2 + 3 * u + 1) / 6, u3 / 6};
-  const double db[4] = {-(1 - u) * (1 - u) / 2, (3 * u2 - 4 * u) / 2, (-3 * u2 + 2 * u + 1) / 2, u2 / 2};
+  const double b[4] = {(1 - u) * (1 - u) * (1 - u) / 6, (3 * u3 - 6 * u2 + 4) / 6,
+                       (-3 * u3 + 3 * u2 + 3 * u + 1) / 6, u3 / 6};
+  const double db[4] = {-(1 - u) * (1 - u) / 2, (3 * u2 - 4 * u) / 2, (-3 * u2 + 2 * u + 1) / 2,
+                        u2 / 2};
   const double ddb[4] = {1 - u, 3 * u - 2, -3 * u + 1, u};
   MotionState m;
   for (int k = 0; k < 4; ++k) {
@@ -56,14 +58,18 @@ using Node = std::pair<int, int>;
 std::vector<Node> Neighbours(const StreetGrid& g, Node n) {
   std::vector<Node> out;
   const int nx = static_cast<int>(g.xs.size()), ny = static_cast<int>(g.ys.size());
-  const Node cand[4] = {{n.first + 1, n.second}, {n.first - 1, n.second}, {n.first, n.second + 1}, {n.first, n.second - 1}};
+  const Node cand[4] = {{n.first + 1, n.second},
+                        {n.first - 1, n.second},
+                        {n.first, n.second + 1},
+                        {n.first, n.second - 1}};
   for (const Node& c : cand) {
     if (c.first >= 0 && c.first < nx && c.second >= 0 && c.second < ny) out.push_back(c);
   }
   return out;
 }
 
-double SegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+double SegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                       const Eigen::Vector2d& b) {
   const Eigen::Vector2d ab = b - a;
   const double s = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
   return (a + s * ab - p).norm();
@@ -81,7 +87,8 @@ std::vector<Node> PathNoUturn(const StreetGrid& g, Node prev, Node from, Node to
     queue.pop_front();
     if (cur.first == to && cur.first != from) {
       std::vector<Node> path;
-      for (State s = cur; !(s.first == from && s.second == prev); s = parent[s]) path.push_back(s.first);
+      for (State s = cur; !(s.first == from && s.second == prev); s = parent[s])
+        path.push_back(s.first);
       std::reverse(path.begin(), path.end());
       return path;
     }
@@ -98,9 +105,11 @@ std::vector<Node> PathNoUturn(const StreetGrid& g, Node prev, Node from, Node to
 
 }  // namespace
 
-std::vector<Eigen::Vector2d> PlanRoute(const StreetGrid& g, const std::vector<Eigen::Vector2d>& targets,
-                                       double length_m, uint64_t seed) {
-  if (g.xs.size() < 2 || g.ys.size() < 2) throw Error(ErrorCode::kInvalidArgument, "route needs a 2x2 street grid");
+std::vector<Eigen::Vector2d> PlanRoute(const StreetGrid& g,
+                                       const std::vector<Eigen::Vector2d>& targets, double length_m,
+                                       uint64_t seed) {
+  if (g.xs.size() < 2 || g.ys.size() < 2)
+    throw Error(ErrorCode::kInvalidArgument, "route needs a 2x2 street grid");
   Rng rng(HashCombine(seed, 0x70de));
   // 1. For each target, the street segment closest to it.
   std::vector<std::pair<Node, Node>> segments;
@@ -151,7 +160,10 @@ std::vector<Eigen::Vector2d> PlanRoute(const StreetGrid& g, const std::vector<Ei
   // 4. Random walk without U-turns, preferring streets not flown yet, until long enough.
   auto length = [&] {
     double l = 0;
-    for (size_t i = 1; i < nodes.size(); ++i) l += (g.Node(nodes[i].first, nodes[i].second) - g.Node(nodes[i - 1].first, nodes[i - 1].second)).norm();
+    for (size_t i = 1; i < nodes.size(); ++i)
+      l += (g.Node(nodes[i].first, nodes[i].second) -
+            g.Node(nodes[i - 1].first, nodes[i - 1].second))
+               .norm();
     return l;
   };
   std::set<std::pair<Node, Node>> flown;
@@ -170,17 +182,19 @@ std::vector<Eigen::Vector2d> PlanRoute(const StreetGrid& g, const std::vector<Ei
     nodes.push_back(next);
   }
   for (size_t i = 2; i < nodes.size(); ++i) {
-    if (nodes[i] == nodes[i - 2]) throw Error(ErrorCode::kInternal, "route planner produced a U-turn");
+    if (nodes[i] == nodes[i - 2])
+      throw Error(ErrorCode::kInternal, "route planner produced a U-turn");
   }
   std::vector<Eigen::Vector2d> route;
   for (const Node& n : nodes) route.push_back(g.Node(n.first, n.second));
   return route;
 }
 
-SplineTrajectory MakeTrajectory(const std::vector<Eigen::Vector2d>& route, double height, double spacing,
-                                double speed) {
+SplineTrajectory MakeTrajectory(const std::vector<Eigen::Vector2d>& route, double height,
+                                double spacing, double speed) {
   if (route.size() < 2 || !(spacing > 0) || !(speed > 0)) {
-    throw Error(ErrorCode::kInvalidArgument, "trajectory needs a route of >= 2 points, spacing > 0, speed > 0");
+    throw Error(ErrorCode::kInvalidArgument,
+                "trajectory needs a route of >= 2 points, spacing > 0, speed > 0");
   }
   std::vector<Eigen::Vector3d> control;
   double along = 0, next = 0;

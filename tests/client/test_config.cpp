@@ -46,7 +46,8 @@ TEST(ClientConfig, ReportsAllProblemsAtOnce) {
 }
 
 TEST(ClientConfig, EffectiveConfigRoundTrips) {
-  ClientConfig c = ParseClientConfig("fusion:\n  huber_delta: 3.5\nupload:\n  vehicle_id: car-7\n", "x");
+  ClientConfig c =
+      ParseClientConfig("fusion:\n  huber_delta: 3.5\nupload:\n  vehicle_id: car-7\n", "x");
   EXPECT_DOUBLE_EQ(c.fusion.huber_delta, 3.5);
   EXPECT_EQ(c.upload.vehicle_id, "car-7");
   const ClientConfig back = ParseClientConfig(ToYaml(c), "echo");

@@ -20,7 +20,8 @@ Trajectory GroundTruth(int n) {
   for (int k = 0; k < n; ++k) {
     const double s = 2.0 * M_PI * k / n;
     const Eigen::Vector3d p(100.0 * std::cos(s), 60.0 * std::sin(2.0 * s), 3.0 + std::sin(3.0 * s));
-    const Eigen::Vector3d v(-100.0 * std::sin(s), 120.0 * std::cos(2.0 * s), 3.0 * std::cos(3.0 * s));
+    const Eigen::Vector3d v(-100.0 * std::sin(s), 120.0 * std::cos(2.0 * s),
+                            3.0 * std::cos(3.0 * s));
     const double yaw = std::atan2(v.y(), v.x());
     const double pitch = -std::atan2(v.z(), v.head<2>().norm());
     const Eigen::Matrix3d R = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
@@ -50,7 +51,8 @@ double Ate(const std::vector<SE3>& est, const Trajectory& gt, bool align) {
   }
   Eigen::Matrix4d A = Eigen::Matrix4d::Identity();
   if (align) A = Eigen::umeyama(e, g, false);
-  const Eigen::Matrix3Xd aligned = (A.topLeftCorner<3, 3>() * e).colwise() + A.topRightCorner<3, 1>();
+  const Eigen::Matrix3Xd aligned =
+      (A.topLeftCorner<3, 3>() * e).colwise() + A.topRightCorner<3, 1>();
   return std::sqrt((aligned - g).colwise().squaredNorm().mean());
 }
 
@@ -83,9 +85,11 @@ Outcome RunCase(const Case& c, unsigned seed, const ResetInjection& reset = {}) 
   FusionConfig config;
   PoseFusion fusion(config);
   // Start-up guess 2 m and 5 degrees off, with a matching covariance.
-  const SE3 guess = Perturb(gt[0].T, Eigen::Vector3d(0, 0, 5.0 * M_PI / 180.0), Eigen::Vector3d(1.4, -1.4, 0.2));
+  const SE3 guess =
+      Perturb(gt[0].T, Eigen::Vector3d(0, 0, 5.0 * M_PI / 180.0), Eigen::Vector3d(1.4, -1.4, 0.2));
   Matrix6 init_cov = Matrix6::Zero();
-  init_cov.diagonal() << Eigen::Vector3d::Constant(std::pow(0.1, 2)), Eigen::Vector3d::Constant(4.0);
+  init_cov.diagonal() << Eigen::Vector3d::Constant(std::pow(0.1, 2)),
+      Eigen::Vector3d::Constant(4.0);
   fusion.SetInitialPose(guess, init_cov);
 
   // Odometry: each true step corrupted by a bias (drift) and white noise.
@@ -101,13 +105,15 @@ Outcome RunCase(const Case& c, unsigned seed, const ResetInjection& reset = {}) 
   std::uniform_real_distribution<double> unit(0.0, 1.0);
 
   SE3 T_odom = SE3::Identity();
-  const SE3 T_new_old = Perturb(SE3::Identity(), Eigen::Vector3d(0.1, -0.05, 2.5), Eigen::Vector3d(40, -70, 3));
+  const SE3 T_new_old =
+      Perturb(SE3::Identity(), Eigen::Vector3d(0.1, -0.05, 2.5), Eigen::Vector3d(40, -70, 3));
   std::vector<int> used;  // keyframes given to the fusion (the gap's are lost)
   for (int k = 0; k < n; ++k) {
     if (k > 0) {
       const SE3 step = gt[k - 1].T.inverse() * gt[k].T;
-      SE3 noisy = Perturb(step, Eigen::Vector3d(0, c.pitch_bias, c.yaw_bias) + c.rot_noise * randn3(),
-                          c.trans_noise * randn3());
+      SE3 noisy =
+          Perturb(step, Eigen::Vector3d(0, c.pitch_bias, c.yaw_bias) + c.rot_noise * randn3(),
+                  c.trans_noise * randn3());
       noisy.translation() *= 1.0 + c.scale_error;
       T_odom = T_odom * noisy;
     }
@@ -136,7 +142,8 @@ Outcome RunCase(const Case& c, unsigned seed, const ResetInjection& reset = {}) 
     odom.push_back(fusion.OdometryInMap(i));
     gt_used.push_back(gt[used[i]]);
   }
-  return {Ate(odom, gt_used, true), Ate(fused, gt_used, true), Ate(fused, gt_used, false), final_pass.seconds};
+  return {Ate(odom, gt_used, true), Ate(fused, gt_used, true), Ate(fused, gt_used, false),
+          final_pass.seconds};
 }
 
 TEST(PoseFusion, FusedAteWellBelowDriftingOdometryAndNeverWorse) {
@@ -176,11 +183,12 @@ TEST(PoseFusion, OdometryResetBreaksTheChainAndReanchors) {
     for (int gap : {3, 12}) {
       const Outcome broken = RunCase(c, seed, {151, gap, true});
       const Outcome chained = RunCase(c, seed, {151, gap, false});
-      std::printf("no reset                       %4u  %7.3f / %7.3f m\n", seed, none.fused_ate, none.fused_ate_unaligned);
-      std::printf("reset, gap %2d, chain broken    %4u  %7.3f / %7.3f m\n", gap, seed, broken.fused_ate,
-                  broken.fused_ate_unaligned);
-      std::printf("reset, gap %2d, chained (old)   %4u  %7.3f / %7.3f m\n", gap, seed, chained.fused_ate,
-                  chained.fused_ate_unaligned);
+      std::printf("no reset                       %4u  %7.3f / %7.3f m\n", seed, none.fused_ate,
+                  none.fused_ate_unaligned);
+      std::printf("reset, gap %2d, chain broken    %4u  %7.3f / %7.3f m\n", gap, seed,
+                  broken.fused_ate, broken.fused_ate_unaligned);
+      std::printf("reset, gap %2d, chained (old)   %4u  %7.3f / %7.3f m\n", gap, seed,
+                  chained.fused_ate, chained.fused_ate_unaligned);
       EXPECT_LT(broken.fused_ate_unaligned, 1.2 * none.fused_ate_unaligned + 0.05) << "gap " << gap;
       EXPECT_GT(chained.fused_ate_unaligned, 5.0 * broken.fused_ate_unaligned) << "gap " << gap;
     }
@@ -265,7 +273,8 @@ TEST(PoseFusion, CovarianceUsesOurRightPerturbationConvention) {
   fusion.Optimize(10, {0}, &cov);
   ASSERT_EQ(cov.size(), 1u);
   ASSERT_TRUE(cov[0].has_value());
-  EXPECT_LT((*cov[0] - prior_cov).norm(), 1e-6 * prior_cov.norm()) << *cov[0] << "\n\n" << prior_cov;
+  EXPECT_LT((*cov[0] - prior_cov).norm(), 1e-6 * prior_cov.norm()) << *cov[0] << "\n\n"
+                                                                   << prior_cov;
 
   // A chain: uncertainty grows with distance from the constrained start.
   for (int k = 1; k < 10; ++k) {

@@ -47,7 +47,8 @@ PointCloud Scene() {
 
 SE3 Pose(double x, double y, double yaw_deg) {
   SE3 T = SE3::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.linear() =
+      Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T.translation() = Eigen::Vector3d(x, y, 2.0 + 0.02 * x);
   return T;
 }
@@ -60,7 +61,8 @@ PointCloud LocalCloud(const PointCloud& scene, const SE3& T_map_body, unsigned s
   PointCloud local;
   for (const auto& p : scene) {
     if ((p.cast<double>() - T_map_body.translation()).head<2>().norm() > 40.0) continue;
-    local.push_back((T_body_map * p.cast<double>()).cast<float>() + Eigen::Vector3f(noise(rng), noise(rng), noise(rng)));
+    local.push_back((T_body_map * p.cast<double>()).cast<float>() +
+                    Eigen::Vector3f(noise(rng), noise(rng), noise(rng)));
   }
   return VoxelDownsample(local, 0.4f);
 }
@@ -93,8 +95,10 @@ TEST_F(PriorRegistrationTest, StartupRecoversTwoMetresAndFiveDegrees) {
     const RegistrationOutcome r = registrar.RefineInitialPose(local, Offset(truth, dx, dy, dyaw));
     const double dt = (r.T_map_body.translation() - truth.translation()).norm();
     const double dr = RotationAngle(r.T_map_body, truth) * 180.0 / M_PI;
-    std::printf("start-up guess off by (%.1f, %.1f) m, %.0f deg -> %s, error %.3f m %.3f deg, "
-                "fitness %.3f m, %.3f s\n", dx, dy, dyaw, r.reason.c_str(), dt, dr, r.fitness_m, r.seconds);
+    std::printf(
+        "start-up guess off by (%.1f, %.1f) m, %.0f deg -> %s, error %.3f m %.3f deg, "
+        "fitness %.3f m, %.3f s\n",
+        dx, dy, dyaw, r.reason.c_str(), dt, dr, r.fitness_m, r.seconds);
     EXPECT_TRUE(r.accepted) << r.reason;
     EXPECT_LT(dt, 0.1);
     EXPECT_LT(dr, 0.3);
@@ -111,8 +115,9 @@ TEST_F(PriorRegistrationTest, RelocalizationRecoversLargerDriftWithinItsLimits) 
   const PointCloud local = LocalCloud(scene_, truth, 4);
   const SE3 guess = Offset(truth, 4.0, -3.5, 10.0);  // 5.3 m, 10 deg: beyond the normal gate
   EXPECT_FALSE(registrar.Register(local, guess).accepted);
-  const RegistrationOutcome r = registrar.RefineInitialPose(
-      local, guess, config.relocalize_max_correction_m, config.relocalize_max_correction_deg * M_PI / 180.0);
+  const RegistrationOutcome r =
+      registrar.RefineInitialPose(local, guess, config.relocalize_max_correction_m,
+                                  config.relocalize_max_correction_deg * M_PI / 180.0);
   const double dt = (r.T_map_body.translation() - truth.translation()).norm();
   std::printf("re-localization from 5.3 m / 10 deg: %s, error %.3f m\n", r.reason.c_str(), dt);
   EXPECT_TRUE(r.accepted) << r.reason;
@@ -131,11 +136,13 @@ TEST_F(PriorRegistrationTest, ReanchoringAmongHeadingHypothesesFindsTheTruth) {
   const PointCloud local = LocalCloud(scene_, truth, 5);
   std::vector<SE3> guesses;
   for (int i = 0; i < 12; ++i) guesses.push_back(Offset(Pose(4.0, 0.0, 0.0), 0, 0, 30.0 * i));
-  const RegistrationOutcome r = registrar.RefineAmongGuesses(
-      local, guesses, config.relocalize_max_correction_m, config.relocalize_max_correction_deg * M_PI / 180.0);
+  const RegistrationOutcome r =
+      registrar.RefineAmongGuesses(local, guesses, config.relocalize_max_correction_m,
+                                   config.relocalize_max_correction_deg * M_PI / 180.0);
   const double dt = (r.T_map_body.translation() - truth.translation()).norm();
   const double dr = RotationAngle(r.T_map_body, truth) * 180.0 / M_PI;
-  std::printf("re-anchoring among 12 headings: %s, error %.3f m %.3f deg\n", r.reason.c_str(), dt, dr);
+  std::printf("re-anchoring among 12 headings: %s, error %.3f m %.3f deg\n", r.reason.c_str(), dt,
+              dr);
   EXPECT_TRUE(r.accepted) << r.reason;
   EXPECT_LT(dt, 0.1);
   EXPECT_LT(dr, 0.3);
@@ -167,7 +174,8 @@ TEST_F(PriorRegistrationTest, RegistrationTiltedAgainstTheOdometrysGravityIsReje
   EXPECT_TRUE(slight.accepted) << slight.reason;
   const RegistrationOutcome tilted = registrar.Register(local, guess, odometry_up(10.0));
   EXPECT_FALSE(tilted.accepted);
-  EXPECT_NE(tilted.reason.find("from the odometry's gravity > max_tilt 6 deg"), std::string::npos) << tilted.reason;
+  EXPECT_NE(tilted.reason.find("from the odometry's gravity > max_tilt 6 deg"), std::string::npos)
+      << tilted.reason;
   // Without an odometry gravity there is nothing to check against.
   EXPECT_TRUE(registrar.Register(local, guess).accepted);
 }
@@ -192,11 +200,13 @@ TEST_F(PriorRegistrationTest, RegistrationOfNearbyGuessAndNoPriorReason) {
   FilePriorSource prior(path_, 0.4);
   PriorRegistrar registrar(RegistrationConfig{}, &prior);
   const SE3 truth = Pose(10.0, 0.0, 90.0);
-  const RegistrationOutcome r = registrar.Register(LocalCloud(scene_, truth, 3), Offset(truth, 0.5, -0.3, 1.0));
+  const RegistrationOutcome r =
+      registrar.Register(LocalCloud(scene_, truth, 3), Offset(truth, 0.5, -0.3, 1.0));
   EXPECT_TRUE(r.accepted) << r.reason;
   EXPECT_LT((r.T_map_body.translation() - truth.translation()).norm(), 0.1);
   // Far outside the prior: rejected with a reason, no exception.
-  const RegistrationOutcome none = registrar.Register(LocalCloud(scene_, truth, 3), Pose(5000, 5000, 0));
+  const RegistrationOutcome none =
+      registrar.Register(LocalCloud(scene_, truth, 3), Pose(5000, 5000, 0));
   EXPECT_FALSE(none.accepted);
   EXPECT_NE(none.reason.find("no prior"), std::string::npos) << none.reason;
 }
@@ -219,7 +229,8 @@ TEST(LocalCloud, PointsLandInTheAnchorBodyFrame) {
   const SE3 other = Pose(3, 0, 0);  // 3 m ahead along map x
   const PointCloud cloud = BuildLocalCloud({{other, &depth}}, anchor, cam, T_body_cam, config);
   ASSERT_EQ(cloud.size(), 1u);
-  const Eigen::Vector3d expected = anchor.inverse() * other * T_body_cam * Eigen::Vector3d(0, 0, 10);
+  const Eigen::Vector3d expected =
+      anchor.inverse() * other * T_body_cam * Eigen::Vector3d(0, 0, 10);
   EXPECT_LT((cloud[0].cast<double>() - expected).norm(), 1e-4);
 }
 

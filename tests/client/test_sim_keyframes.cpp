@@ -41,7 +41,8 @@ DepthError Compare(const DepthImage& est, const DepthImage& gt, double max_depth
     bad += std::abs(e) > 1.0;
     ++n;
   }
-  return {std::sqrt(sq / std::max<size_t>(n, 1)), static_cast<double>(n) / std::max<size_t>(gt_n, 1),
+  return {std::sqrt(sq / std::max<size_t>(n, 1)),
+          static_cast<double>(n) / std::max<size_t>(gt_n, 1),
           static_cast<double>(bad) / std::max<size_t>(n, 1)};
 }
 
@@ -56,7 +57,8 @@ TEST(SimKeyframes, TemporalFilterLowersSgbmDepthErrorAgainstGroundTruth) {
   std::vector<DepthFrame> window;
   raw.reserve(5);
   for (const auto& f : frames) {
-    raw.push_back(stereo.ComputeDepth(ReadGrayImage(f.left_path), ReadGrayImage(f.right_path), rig));
+    raw.push_back(
+        stereo.ComputeDepth(ReadGrayImage(f.left_path), ReadGrayImage(f.right_path), rig));
   }
   for (size_t i = 0; i < 5; ++i) {
     SE3 T_map_body;
@@ -110,7 +112,8 @@ TEST(SimKeyframes, PipelineStartsFromARoughGuessAndWritesKeyframes) {
     const double dt = (r.fused_T_map_body[k].T.translation() - truth.translation()).norm();
     const double dr = RotationAngle(r.fused_T_map_body[k].T, truth) * 180.0 / M_PI;
     const double vio = (r.vio_T_map_body[k].T.translation() - truth.translation()).norm();
-    std::printf("keyframe %zu: fused error %.3f m %.2f deg (guess-anchored odometry %.3f m)\n", k, dt, dr, vio);
+    std::printf("keyframe %zu: fused error %.3f m %.2f deg (guess-anchored odometry %.3f m)\n", k,
+                dt, dr, vio);
     EXPECT_LT(dt, 0.4);
     EXPECT_LT(dr, 1.5);
   }
@@ -171,7 +174,7 @@ TEST(SimKeyframes, DecodeAheadPreparesEveryFrameInOrderAndChangesNoResult) {
   EXPECT_EQ(ahead.unprepared_, 0);
   EXPECT_EQ(ahead.bad_images_, 0);
   EXPECT_TRUE(inline_odometry.prepared_.empty());  // without decode-ahead nobody prepares
-  EXPECT_EQ(inline_odometry.bad_images_, 5);        // ... and At() gets no images
+  EXPECT_EQ(inline_odometry.bad_images_, 5);       // ... and At() gets no images
   ASSERT_EQ(ra.keyframes, 5u);
   ASSERT_EQ(ra.fused_T_map_body.size(), rb.fused_T_map_body.size());
   for (size_t k = 0; k < ra.fused_T_map_body.size(); ++k) {
@@ -184,7 +187,11 @@ TEST(SimKeyframes, UnreadableFrameStopsThePipelineNamingTheFile) {
   std::filesystem::copy(kSequence, dir / "seq", std::filesystem::copy_options::recursive);
   const EurocSequence seq = ReadEurocSequence((dir / "seq").string());
   const std::string broken = seq.StereoFrames()[3].right_path;
-  { std::FILE* f = std::fopen(broken.c_str(), "wb"); std::fputs("not a png", f); std::fclose(f); }
+  {
+    std::FILE* f = std::fopen(broken.c_str(), "wb");
+    std::fputs("not a png", f);
+    std::fclose(f);
+  }
   ClientConfig config;
   config.keyframes.min_translation_m = 0.5;
   for (const bool decode_ahead : {true, false}) {

@@ -30,8 +30,8 @@ Scores Score(const DisparityImage& d, const cv::Mat& gt16, double gt_scale) {
   size_t gt_pixels = 0, valid = 0, bad1 = 0, bad3 = 0;
   for (int v = 0; v < d.height; ++v) {
     for (int u = 0; u < d.width; ++u) {
-      const double g = (gt16.depth() == CV_16U ? gt16.at<uint16_t>(v, u) : gt16.at<uint8_t>(v, u)) /
-                       gt_scale;
+      const double g =
+          (gt16.depth() == CV_16U ? gt16.at<uint16_t>(v, u) : gt16.at<uint8_t>(v, u)) / gt_scale;
       if (g <= 0) continue;
       ++gt_pixels;
       const float e = d.at(u, v);
@@ -77,10 +77,10 @@ void CheckPair(const std::string& name, const std::string& left, const std::stri
   ASSERT_EQ(gt16.cols, l.width);
   const int num_disp = stereo.NumDisparitiesFor(l.width);
   const Scores ours = Score(stereo.ComputeDisparity(l, r), gt16, gt_scale);
-  const Scores base = Score(DefaultLikeSgbm(kStereoDir + left, kStereoDir + right, num_disp),
-                            gt16, gt_scale);
-  std::printf("[%s %dx%d, %d disparities]       density  bad>1px  bad>3px\n", name.c_str(),
-              l.width, l.height, num_disp);
+  const Scores base =
+      Score(DefaultLikeSgbm(kStereoDir + left, kStereoDir + right, num_disp), gt16, gt_scale);
+  std::printf("[%s %dx%d, %d disparities]       density  bad>1px  bad>3px\n", name.c_str(), l.width,
+              l.height, num_disp);
   std::printf("  mapdelta production SGBM    %6.3f   %6.3f   %6.3f\n", ours.density, ours.bad1,
               ours.bad3);
   std::printf("  OpenCV SGBM default-like    %6.3f   %6.3f   %6.3f\n", base.density, base.bad1,
@@ -167,8 +167,10 @@ TEST(StereoDepth, PfmRoundTrip) {
   ASSERT_EQ(back.width, 3);
   ASSERT_EQ(back.height, 2);
   for (size_t i = 0; i < d.disparity_px.size(); ++i) {
-    if (std::isnan(d.disparity_px[i])) EXPECT_TRUE(std::isnan(back.disparity_px[i]));
-    else EXPECT_EQ(back.disparity_px[i], d.disparity_px[i]);
+    if (std::isnan(d.disparity_px[i]))
+      EXPECT_TRUE(std::isnan(back.disparity_px[i]));
+    else
+      EXPECT_EQ(back.disparity_px[i], d.disparity_px[i]);
   }
   EXPECT_THROW(WriteDisparity(path + ".jpg", d), Error);
 }

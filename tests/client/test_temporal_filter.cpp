@@ -117,8 +117,10 @@ TEST(TemporalFilter, LowersDepthErrorOnSyntheticStreet) {
   const DepthImage filtered = TemporalFilter(frames, 2, cam, paper, &stats);
   const Error2 before = Evaluate(noisy[2], gt[2]);
   const Error2 after = Evaluate(filtered, gt[2]);
-  std::printf("temporal filter (alpha 4, delta_d 0.5 m): RMSE %.3f m -> %.3f m, density %.3f -> "
-              "%.3f\n", before.rmse, after.rmse, before.density, after.density);
+  std::printf(
+      "temporal filter (alpha 4, delta_d 0.5 m): RMSE %.3f m -> %.3f m, density %.3f -> "
+      "%.3f\n",
+      before.rmse, after.rmse, before.density, after.density);
   EXPECT_LT(after.rmse, 0.2 * before.rmse);
   // alpha 4 demands agreement of all four neighbours: far pixels (disparity noise 0.25 px is
   // > 0.5 m beyond ~30 m) and pixels leaving the view of the frames ahead are dropped.
@@ -161,7 +163,8 @@ TEST(TemporalFilter, SequenceEndsClampAlphaAndBadInputThrows) {
   const DepthImage b = RenderDepth(cam, CameraPose(1.0));
   const std::vector<DepthFrame> frames = {{CameraPose(0.0), &a}, {CameraPose(1.0), &b}};
   // One neighbour only: alpha is clamped to 1 so the first keyframe still gets depth.
-  EXPECT_GT(TemporalFilter(frames, 0, cam, TemporalFilterConfig{}).CountValid(), a.CountValid() / 2);
+  EXPECT_GT(TemporalFilter(frames, 0, cam, TemporalFilterConfig{}).CountValid(),
+            a.CountValid() / 2);
   EXPECT_THROW(TemporalFilter(frames, 5, cam, TemporalFilterConfig{}), Error);
   DepthImage wrong(10, 10);
   const std::vector<DepthFrame> bad = {{CameraPose(0.0), &a}, {CameraPose(1.0), &wrong}};

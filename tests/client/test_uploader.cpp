@@ -32,8 +32,8 @@ struct FakeServer {
   int sessions_created = 0;
   int commits = 0;
   int puts_received = 0;
-  std::atomic<int> fail_next{0};       // answer 503 to this many requests
-  std::atomic<int> drop_ack_next{0};   // store, then answer 503 (lost acknowledgement)
+  std::atomic<int> fail_next{0};      // answer 503 to this many requests
+  std::atomic<int> drop_ack_next{0};  // store, then answer 503 (lost acknowledgement)
   httplib::Server http;
   std::thread thread;
   int port = 0;
@@ -50,42 +50,47 @@ struct FakeServer {
       res.status = 201;
       res.set_content(R"({"session_id": 7})", "application/json");
     });
-    http.Put(R"(/v1/sessions/7/keyframes/(\d+))", [this](const httplib::Request& req,
-                                                          httplib::Response& res) {
-      if (Fail(res)) return;
-      std::lock_guard lock(mutex);
-      ++puts_received;
-      const int64_t seq = std::stoll(req.matches[1]);
-      if (!req.has_file("meta") || !req.has_file("depth")) {
-        res.status = 400;
-        return;
-      }
-      const std::string content = req.get_file_value("meta").content + "|" + req.get_file_value("depth").content;
-      const auto it = keyframes.find(seq);
-      if (it != keyframes.end()) {
-        res.status = it->second == content ? 200 : 409;
-        if (res.status == 409) res.set_content(R"({"error":{"code":"keyframe_conflict","message":"x"}})", "application/json");
-        return;
-      }
-      if (seq != static_cast<int64_t>(keyframes.size())) {
-        res.status = 409;
-        res.set_content(R"({"error":{"code":"seq_out_of_order","message":"x"}})", "application/json");
-        return;
-      }
-      keyframes[seq] = content;
-      if (drop_ack_next > 0) {
-        --drop_ack_next;
-        res.status = 503;
-        return;
-      }
-      res.status = 201;
-    });
+    http.Put(R"(/v1/sessions/7/keyframes/(\d+))",
+             [this](const httplib::Request& req, httplib::Response& res) {
+               if (Fail(res)) return;
+               std::lock_guard lock(mutex);
+               ++puts_received;
+               const int64_t seq = std::stoll(req.matches[1]);
+               if (!req.has_file("meta") || !req.has_file("depth")) {
+                 res.status = 400;
+                 return;
+               }
+               const std::string content =
+                   req.get_file_value("meta").content + "|" + req.get_file_value("depth").content;
+               const auto it = keyframes.find(seq);
+               if (it != keyframes.end()) {
+                 res.status = it->second == content ? 200 : 409;
+                 if (res.status == 409)
+                   res.set_content(R"({"error":{"code":"keyframe_conflict","message":"x"}})",
+                                   "application/json");
+                 return;
+               }
+               if (seq != static_cast<int64_t>(keyframes.size())) {
+                 res.status = 409;
+                 res.set_content(R"({"error":{"code":"seq_out_of_order","message":"x"}})",
+                                 "application/json");
+                 return;
+               }
+               keyframes[seq] = content;
+               if (drop_ack_next > 0) {
+                 --drop_ack_next;
+                 res.status = 503;
+                 return;
+               }
+               res.status = 201;
+             });
     http.Post("/v1/sessions/7/commit", [this](const httplib::Request&, httplib::Response& res) {
       if (Fail(res)) return;
       std::lock_guard lock(mutex);
       if (commits > 0) {
         res.status = 409;
-        res.set_content(R"({"error":{"code":"session_not_open","message":"x"}})", "application/json");
+        res.set_content(R"({"error":{"code":"session_not_open","message":"x"}})",
+                        "application/json");
         return;
       }
       ++commits;
@@ -162,8 +167,8 @@ TEST(Uploader, SurvivesOutagesLostAcksAndAClientRestartWithoutLossOrDuplicates) 
     UploadQueue queue(dir);
     auto transport = MakeHttpTransport(url, "secret", 1.0);
     Uploader uploader(FastRetries(), SmallCamera(), &queue, transport.get());
-    server.fail_next = 3;       // the server is failing when the vehicle starts
-    server.drop_ack_next = 2;   // and loses two acknowledgements after storing
+    server.fail_next = 3;      // the server is failing when the vehicle starts
+    server.drop_ack_next = 2;  // and loses two acknowledgements after storing
     std::thread runner([&] { uploader.Run(stop); });
     for (int i = 0; i < 7; ++i) uploader.Enqueue(MakeKeyframe(i));
     while (queue.PendingCount() > 3) std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -204,7 +209,8 @@ TEST(Uploader, SurvivesOutagesLostAcksAndAClientRestartWithoutLossOrDuplicates) 
 TEST(Uploader, PermanentErrorsStopWithAReason) {
   FakeServer server;
   UploadQueue queue(QueueDir("auth"));
-  auto transport = MakeHttpTransport("http://127.0.0.1:" + std::to_string(server.port), "wrong", 1.0);
+  auto transport =
+      MakeHttpTransport("http://127.0.0.1:" + std::to_string(server.port), "wrong", 1.0);
   Uploader uploader(FastRetries(), SmallCamera(), &queue, transport.get());
   uploader.Enqueue(MakeKeyframe(0));
   std::atomic<bool> stop{false};

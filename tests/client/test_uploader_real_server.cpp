@@ -92,7 +92,8 @@ Keyframe MakeKeyframe(int i) {
   k.T_map_cam.translation() = Eigen::Vector3d(i, 0.2 * i, 1.5);
   k.covariance = Eigen::Matrix<double, 6, 6>::Identity() * 0.01;
   k.depth = DepthImage(32, 24);
-  for (size_t p = 0; p < k.depth.depth_m.size(); ++p) k.depth.depth_m[p] = 2.0f + 0.01f * ((p + i) % 100);
+  for (size_t p = 0; p < k.depth.depth_m.size(); ++p)
+    k.depth.depth_m[p] = 2.0f + 0.01f * ((p + i) % 100);
   return k;
 }
 
@@ -101,10 +102,12 @@ TEST(UploaderRealServer, ServerCrashAndClientRestartLoseAndDuplicateNothing) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string config = (dir / "server.yaml").string();
-  std::ofstream(config) << "http:\n  port: 0\nstorage:\n  database: " << (dir / "db.sqlite").string()
+  std::ofstream(config) << "http:\n  port: 0\nstorage:\n  database: "
+                        << (dir / "db.sqlite").string()
                         << "\nlog:\n  level: error\n  format: text\n";
-  const std::string created = RunCapture(std::string(MAPDELTA_SERVER_BIN) + " token create --config " +
-                                         config + " --role vehicle --name client-test");
+  const std::string created =
+      RunCapture(std::string(MAPDELTA_SERVER_BIN) + " token create --config " + config +
+                 " --role vehicle --name client-test");
   std::smatch m;
   ASSERT_TRUE(std::regex_search(created, m, std::regex(R"(token:\s*(\S+))"))) << created;
   const std::string token = m[1];
@@ -134,7 +137,7 @@ TEST(UploaderRealServer, ServerCrashAndClientRestartLoseAndDuplicateNothing) {
     while (queue.PendingCount() > 3) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     server->Kill();  // the server crashes mid-session ...
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    stop = true;     // ... and the client is killed while it retries
+    stop = true;  // ... and the client is killed while it retries
     runner.join();
   }
   stop = false;
@@ -145,7 +148,7 @@ TEST(UploaderRealServer, ServerCrashAndClientRestartLoseAndDuplicateNothing) {
   std::thread runner([&] { report = uploader.Run(stop); });
   for (int i = 6; i < n; ++i) uploader.Enqueue(MakeKeyframe(i));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // still down
-  server = std::make_unique<ServerProcess>(config, port);         // back on the same port
+  server = std::make_unique<ServerProcess>(config, port);       // back on the same port
   ASSERT_EQ(server->port(), port);
   queue.Seal();
   runner.join();

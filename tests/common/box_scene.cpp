@@ -38,7 +38,8 @@ double Intersect(const Box& box, const Eigen::Vector3d& origin, const Eigen::Vec
   double t_far = std::numeric_limits<double>::infinity();
   for (int k = 0; k < 3; ++k) {
     if (std::abs(dir[k]) < 1e-12) {
-      if (origin[k] < box.min[k] || origin[k] > box.max[k]) return std::numeric_limits<double>::infinity();
+      if (origin[k] < box.min[k] || origin[k] > box.max[k])
+        return std::numeric_limits<double>::infinity();
       continue;
     }
     double t0 = (box.min[k] - origin[k]) / dir[k];
@@ -53,7 +54,8 @@ double Intersect(const Box& box, const Eigen::Vector3d& origin, const Eigen::Vec
 
 }  // namespace
 
-DepthImage RenderDepth(const PinholeCamera& camera, const SE3& T_map_cam, const std::vector<Box>& boxes) {
+DepthImage RenderDepth(const PinholeCamera& camera, const SE3& T_map_cam,
+                       const std::vector<Box>& boxes) {
   DepthImage depth(camera.width, camera.height);
   const Eigen::Vector3d origin = T_map_cam.translation();
   for (int v = 0; v < camera.height; ++v) {

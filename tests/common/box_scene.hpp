@@ -17,7 +17,8 @@ struct Box {
 // Points on all six faces of every box on a grid of `spacing` metres.
 PointCloud SampleBoxSurfaces(const std::vector<Box>& boxes, double spacing);
 // Depth (along the optical axis) of the first box hit by each pixel's ray; 0 where nothing is hit.
-DepthImage RenderDepth(const PinholeCamera& camera, const SE3& T_map_cam, const std::vector<Box>& boxes);
+DepthImage RenderDepth(const PinholeCamera& camera, const SE3& T_map_cam,
+                       const std::vector<Box>& boxes);
 // Camera at `eye` looking at `target` with the map z axis up (camera x right, y down, z forward).
 SE3 LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target);
 

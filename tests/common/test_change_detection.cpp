@@ -160,8 +160,9 @@ TEST(ChangeDetection, BoxWorldFindsRemovedAndAddedBuildings) {
   for (const auto& p : result.changes.removed_points) {
     EXPECT_TRUE(p.x() > 11 - 3.2 && p.y() < -11 + 3.2) << p.transpose();
   }
-  const MetricsInput input{original, changed, result.changes.new_points,
-                           result.changes.removed_points, result.global, result.observed};
+  const MetricsInput input{
+      original,      changed,        result.changes.new_points, result.changes.removed_points,
+      result.global, result.observed};
   const ChangeMetrics m = EvaluateChangesPaper(input);
   std::cout << "paper: R_new " << m.recall_new << " P_new " << m.precision_new << " R_rm "
             << m.recall_removed << " P_rm " << m.precision_removed << "\n";
@@ -184,18 +185,21 @@ TEST(ChangeDetection, AlignmentCallbackCorrectsShiftedPoses) {
   testing::BoxWorld world = testing::MakeBoxWorld();
   SE3 T_drift = SE3::Identity();
   T_drift.translation() = Eigen::Vector3d(5.0, -4.0, 0.5);  // larger than th_ch: must be undone
-  for (auto& keyframe : world.keyframes.keyframes) keyframe.T_map_cam = T_drift * keyframe.T_map_cam;
+  for (auto& keyframe : world.keyframes.keyframes)
+    keyframe.T_map_cam = T_drift * keyframe.T_map_cam;
   const PointCloud original = testing::SampleBoxSurfaces(world.original, 0.3);
   const ChangeDetectionParams params;
   const auto without = DetectChanges(world.keyframes, original, params);
-  const auto with = DetectChanges(world.keyframes, original, params,
-                                  [&](const PointCloud&, const PointCloud&) { return T_drift.inverse(); });
+  const auto with =
+      DetectChanges(world.keyframes, original, params,
+                    [&](const PointCloud&, const PointCloud&) { return T_drift.inverse(); });
   EXPECT_TRUE(with.T_prior_global.isApprox(T_drift.inverse()));
   // Drifted: much of the scene looks changed. Corrected: only the added building.
   size_t outside_d = 0;
   for (const auto& p : without.changes.new_points) outside_d += (p.x() > 7 && p.y() > 7) ? 0 : 1;
   EXPECT_GT(outside_d, 100u);
-  for (const auto& p : with.changes.new_points) EXPECT_TRUE(p.x() > 7 && p.y() > 7) << p.transpose();
+  for (const auto& p : with.changes.new_points)
+    EXPECT_TRUE(p.x() > 7 && p.y() > 7) << p.transpose();
 }
 
 }  // namespace

@@ -165,18 +165,23 @@ TEST(CloudIo, HeaderErrorsNameFileAndField) {
     return std::string("no error");
   };
   const std::string good_tail = "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
-  EXPECT_NE(message("nox.pcd", "FIELDS a y z\nSIZE 4 4 4\nTYPE F F F\n" + good_tail).find("x, y and z"),
-            std::string::npos);
+  EXPECT_NE(
+      message("nox.pcd", "FIELDS a y z\nSIZE 4 4 4\nTYPE F F F\n" + good_tail).find("x, y and z"),
+      std::string::npos);
   EXPECT_NE(message("size.pcd", "FIELDS x y z\nSIZE 4 4\nTYPE F F F\n" + good_tail).find("SIZE"),
             std::string::npos);
-  EXPECT_NE(message("pts.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nHEIGHT 1\nPOINTS 2\n"
-                               "DATA binary\n123456789012").find("truncated"),
+  EXPECT_NE(message("pts.pcd",
+                    "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nHEIGHT 1\nPOINTS 2\n"
+                    "DATA binary\n123456789012")
+                .find("truncated"),
             std::string::npos);
-  EXPECT_NE(message("data.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT 1\nDATA zip\n")
-                .find("DATA"),
-            std::string::npos);
-  const std::string m = message("v.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
-                                         "property float y\nproperty float z\nend_header\n1 2 3\n");
+  EXPECT_NE(
+      message("data.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT 1\nDATA zip\n")
+          .find("DATA"),
+      std::string::npos);
+  const std::string m = message("v.ply",
+                                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                                "property float y\nproperty float z\nend_header\n1 2 3\n");
   EXPECT_NE(m.find("v.ply"), std::string::npos) << m;
   EXPECT_NE(message("m.ply", "plx\n").find("'ply'"), std::string::npos);
 }

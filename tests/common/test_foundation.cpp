@@ -58,8 +58,8 @@ TEST(Camera, ProjectBackProjectRoundTrip) {
 }
 
 TEST(VoxelGrid, OnePointPerVoxelAtCentroid) {
-  const PointCloud cloud = {{0.1f, 0.1f, 0.1f}, {0.3f, 0.3f, 0.3f}, {1.1f, 0.1f, 0.1f},
-                            {-0.1f, 0.1f, 0.1f}};
+  const PointCloud cloud = {
+      {0.1f, 0.1f, 0.1f}, {0.3f, 0.3f, 0.3f}, {1.1f, 0.1f, 0.1f}, {-0.1f, 0.1f, 0.1f}};
   const PointCloud out = VoxelDownsample(cloud, 0.5f);
   ASSERT_EQ(out.size(), 3u);
   EXPECT_TRUE(out[0].isApprox(Point(0.2f, 0.2f, 0.2f)));
@@ -113,9 +113,10 @@ TEST(TrajectoryIo, TumRoundTripAndLineErrors) {
   const std::string dir = TempDir("traj");
   Trajectory trajectory;
   for (int i = 0; i < 5; ++i) {
-    trajectory.push_back({1'400'000'000'123'456'789LL + i * 50'000'000LL,
-                          MakeSE3(Eigen::Quaterniond(Eigen::AngleAxisd(0.1 * i, Eigen::Vector3d::UnitZ())),
-                                  {1.0 * i, -2.0, 0.5})});
+    trajectory.push_back(
+        {1'400'000'000'123'456'789LL + i * 50'000'000LL,
+         MakeSE3(Eigen::Quaterniond(Eigen::AngleAxisd(0.1 * i, Eigen::Vector3d::UnitZ())),
+                 {1.0 * i, -2.0, 0.5})});
   }
   WriteTumTrajectory(dir + "/t.txt", trajectory);
   const Trajectory back = ReadTumTrajectory(dir + "/t.txt");

@@ -54,7 +54,8 @@ TEST(WindowMin, NearestDepthAroundMatchesBruteForce) {
                 if (std::isfinite(d) && d > 0.f) expected = std::min(expected, d);
               }
             ASSERT_EQ(got[static_cast<size_t>(v / stride) * cols + u / stride], expected)
-                << w << "x" << h << " window " << window << " stride " << stride << " at " << u << "," << v;
+                << w << "x" << h << " window " << window << " stride " << stride << " at " << u
+                << "," << v;
           }
         }
       }
@@ -74,9 +75,9 @@ TEST(ObservedArea, WallInFrontOfCameraAgreesWithGeometry) {
     const Point behind = InFrustum(rng, 11.5f, 30.0f);
     EXPECT_FALSE(area.IsObserved(behind)) << behind.transpose();
   }
-  EXPECT_TRUE(area.IsObserved({0.f, 0.f, 10.f}));     // the wall voxel (occupied)
-  EXPECT_FALSE(area.IsObserved({0.f, 0.f, -3.f}));    // behind the camera
-  EXPECT_FALSE(area.IsObserved({30.f, 0.f, 5.f}));    // outside the frustum
+  EXPECT_TRUE(area.IsObserved({0.f, 0.f, 10.f}));   // the wall voxel (occupied)
+  EXPECT_FALSE(area.IsObserved({0.f, 0.f, -3.f}));  // behind the camera
+  EXPECT_FALSE(area.IsObserved({30.f, 0.f, 5.f}));  // outside the frustum
 }
 
 TEST(ObservedArea, FreeRaysForPixelsWithoutDepthAndBeyondMaxDepth) {
@@ -171,7 +172,8 @@ TEST(ObservedArea, MergeEqualsJointInsertionAndSerializationRoundTrips) {
   a.Merge(b);
   const std::string bytes = a.SerializeBinary();
   const ObservedArea back = ObservedArea::DeserializeBinary(bytes);
-  const std::string path = (std::filesystem::temp_directory_path() / "mapdelta_observed.bt").string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "mapdelta_observed.bt").string();
   a.Save(path);
   const ObservedArea loaded = ObservedArea::Load(path);
   size_t known = 0;
@@ -193,7 +195,8 @@ TEST(ObservedArea, RejectsBadInput) {
   EXPECT_THROW(ObservedArea(0.0), Error);
   ObservedAreaParams negative_window = Params();
   negative_window.free_ray_bound_window_px = -1;
-  EXPECT_THROW(area.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 10.f), negative_window), Error);
+  EXPECT_THROW(area.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 10.f), negative_window),
+               Error);
   EXPECT_THROW(ObservedArea::Load("/nonexistent/x.bt"), Error);
   area.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 10.f), Params());
   const std::string good = area.SerializeBinary();

@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 #include "box_scene.hpp"
@@ -41,12 +41,13 @@ TEST(Tools, DetectThenEvaluateTheBoxWorld) {
   const auto summary = ReadJson(dir + "/out/summary.json");
   EXPECT_EQ(summary["keyframes"], 24);
   EXPECT_GT(summary["new_points"].get<int>(), 100);
-  ASSERT_EQ(tools::RunEvalChanges({"--original", dir + "/original.pcd", "--changed", dir + "/changed.ply",
-                                   "--new", dir + "/out/new.pcd", "--removed", dir + "/out/removed.pcd",
-                                   "--global", dir + "/out/global.pcd", "--observed",
-                                   dir + "/out/observed.bt", "--json", dir + "/metrics.json"},
-                                  out),
-            0);
+  ASSERT_EQ(
+      tools::RunEvalChanges({"--original", dir + "/original.pcd", "--changed", dir + "/changed.ply",
+                             "--new", dir + "/out/new.pcd", "--removed", dir + "/out/removed.pcd",
+                             "--global", dir + "/out/global.pcd", "--observed",
+                             dir + "/out/observed.bt", "--json", dir + "/metrics.json"},
+                            out),
+      0);
   const auto metrics = ReadJson(dir + "/metrics.json");
   for (const char* key : {"R_new", "P_new", "R_rm", "P_rm"}) {
     EXPECT_GE(metrics["paper"][key].get<double>(), 0.95) << key;
@@ -69,8 +70,8 @@ TEST(Tools, AteCommandPrintsEvoNumbersAndJson) {
   const std::string data = std::string(MAPDELTA_TEST_DATA_DIR) + "/tum_fr2_desk/";
   const std::string json = TempDir("tools_ate") + "/ate.json";
   std::ostringstream out;
-  ASSERT_EQ(tools::RunEvalAte({data + "fr2_desk_groundtruth.txt", data + "fr2_desk_ORB.txt", "--align",
-                               "sim3", "--json", json},
+  ASSERT_EQ(tools::RunEvalAte({data + "fr2_desk_groundtruth.txt", data + "fr2_desk_ORB.txt",
+                               "--align", "sim3", "--json", json},
                               out),
             0);
   EXPECT_NE(out.str().find("pairs  2174"), std::string::npos) << out.str();
@@ -82,13 +83,14 @@ TEST(Tools, AteReadsEurocCsvAgainstTum) {
   const std::string csv = TempDir("tools_euroc") + "/orb.csv";
   {
     std::ofstream out(csv);
-    out << "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n";
+    out << "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y "
+           "[],q_RS_z []\n";
     out.precision(12);
     for (const auto& pose : ReadTrajectory(data)) {
       const Eigen::Quaterniond q(pose.T.linear());
       const Eigen::Vector3d t = pose.T.translation();
-      out << pose.t_ns << ',' << t.x() << ',' << t.y() << ',' << t.z() << ',' << q.w() << ',' << q.x()
-          << ',' << q.y() << ',' << q.z() << '\n';
+      out << pose.t_ns << ',' << t.x() << ',' << t.y() << ',' << t.z() << ',' << q.w() << ','
+          << q.x() << ',' << q.y() << ',' << q.z() << '\n';
     }
   }
   std::ostringstream out;
@@ -110,16 +112,23 @@ TEST(Tools, BadInputNamesTheFileOrOption) {
   const std::string dir = TempDir("tools_bad");
   std::ostringstream out;
   std::ofstream(dir + "/bad.txt") << "1 2 3\n";
-  EXPECT_NE(ErrorOf([&] { tools::RunEvalAte({dir + "/bad.txt", dir + "/bad.txt"}, out); }).find("bad.txt:1"),
+  EXPECT_NE(ErrorOf([&] {
+              tools::RunEvalAte({dir + "/bad.txt", dir + "/bad.txt"}, out);
+            }).find("bad.txt:1"),
             std::string::npos);
-  EXPECT_NE(ErrorOf([&] { tools::RunEvalAte({"a", "b", "--align", "se4"}, out); }).find("--align"),
+  EXPECT_NE(ErrorOf([&] {
+              tools::RunEvalAte({"a", "b", "--align", "se4"}, out);
+            }).find("--align"),
             std::string::npos);
-  EXPECT_NE(ErrorOf([&] { tools::RunDetect({"--prior", "x.pcd"}, out); }).find("--keyframes"),
+  EXPECT_NE(ErrorOf([&] {
+              tools::RunDetect({"--prior", "x.pcd"}, out);
+            }).find("--keyframes"),
             std::string::npos);
   WriteCloud(dir + "/empty.pcd", {});
   std::filesystem::create_directories(dir + "/kf");
   EXPECT_NE(ErrorOf([&] {
-              tools::RunDetect({"--prior", dir + "/empty.pcd", "--keyframes", dir + "/kf", "--out", dir}, out);
+              tools::RunDetect(
+                  {"--prior", dir + "/empty.pcd", "--keyframes", dir + "/kf", "--out", dir}, out);
             }).find("empty.pcd: prior cloud is empty"),
             std::string::npos);
   // A depth image of the wrong size deep inside a streamed folder: named, no crash.
@@ -129,12 +138,17 @@ TEST(Tools, BadInputNamesTheFileOrOption) {
   WriteDepthPng(dir + "/kf3/depth/2000000000.png", DepthImage(7, 5));
   WriteCloud(dir + "/prior.pcd", testing::SampleBoxSurfaces(world.original, 1.0));
   const std::string message = ErrorOf([&] {
-    tools::RunDetect({"--prior", dir + "/prior.pcd", "--keyframes", dir + "/kf3", "--out", dir + "/o"}, out);
+    tools::RunDetect(
+        {"--prior", dir + "/prior.pcd", "--keyframes", dir + "/kf3", "--out", dir + "/o"}, out);
   });
-  EXPECT_NE(message.find("2000000000.png: image is 7x5, camera.yaml says 200x150"), std::string::npos)
+  EXPECT_NE(message.find("2000000000.png: image is 7x5, camera.yaml says 200x150"),
+            std::string::npos)
       << message;
-  EXPECT_NE(ErrorOf([&] { tools::RunDetect({"--prior", dir + "/x.pcd", "--keyframes", dir, "--out", dir,
-                                            "--th-ch", "abc"}, out); }).find("--th-ch"),
+  EXPECT_NE(ErrorOf([&] {
+              tools::RunDetect(
+                  {"--prior", dir + "/x.pcd", "--keyframes", dir, "--out", dir, "--th-ch", "abc"},
+                  out);
+            }).find("--th-ch"),
             std::string::npos);
 }
 

@@ -2,10 +2,10 @@
 // truth, TUM trajectories (all client/tool input). Every reader gets the same bytes.
 #include <cstdint>
 
-#include "parse_errors.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/trajectory_io.hpp"
 #include "memory_file.hpp"
+#include "parse_errors.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace mapdelta;

@@ -4,8 +4,8 @@
 #include <cstdint>
 #include <string>
 
-#include "parse_errors.hpp"
 #include "mapdelta/common/observed_area.hpp"
+#include "parse_errors.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace mapdelta;

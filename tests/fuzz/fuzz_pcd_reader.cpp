@@ -3,8 +3,8 @@
 #include <cstdint>
 #include <string_view>
 
-#include "parse_errors.hpp"
 #include "cloud_readers.hpp"
+#include "parse_errors.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace mapdelta;

@@ -2,9 +2,9 @@
 // reader on the same bytes.
 #include <cstdint>
 
-#include "parse_errors.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "memory_file.hpp"
+#include "parse_errors.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace mapdelta;

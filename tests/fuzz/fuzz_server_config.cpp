@@ -2,9 +2,9 @@
 // ValidateServerConfig's ranges), and the effective config echoed back for a config that loads.
 #include <cstdint>
 
-#include "parse_errors.hpp"
 #include "mapdelta/server/config.hpp"
 #include "memory_file.hpp"
+#include "parse_errors.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace mapdelta;

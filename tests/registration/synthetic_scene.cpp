@@ -40,11 +40,21 @@ Eigen::Vector3d SampleOnBox(const Box& b, std::mt19937& rng) {
   Eigen::Vector3d p(b.min.x() + u(rng) * d.x(), b.min.y() + u(rng) * d.y(),
                     b.min.z() + u(rng) * d.z());
   switch (face) {
-    case 0: p.y() = b.min.y(); break;
-    case 1: p.y() = b.max.y(); break;
-    case 2: p.x() = b.min.x(); break;
-    case 3: p.x() = b.max.x(); break;
-    default: p.z() = b.max.z(); break;
+    case 0:
+      p.y() = b.min.y();
+      break;
+    case 1:
+      p.y() = b.max.y();
+      break;
+    case 2:
+      p.x() = b.min.x();
+      break;
+    case 3:
+      p.x() = b.max.x();
+      break;
+    default:
+      p.z() = b.max.z();
+      break;
   }
   return p;
 }

@@ -50,8 +50,10 @@ TEST(GicpCovariance, CalibratedOnNoisyTrials) {
   }
   const double fraction = static_cast<double>(within) / axes;
   const double mean_nees = nees_sum / kTrials;
-  std::printf("covariance calibration over %d trials: %.1f%% of per-axis errors within 3 sigma, "
-              "mean NEES %.2f (expected 6)\n", kTrials, 100 * fraction, mean_nees);
+  std::printf(
+      "covariance calibration over %d trials: %.1f%% of per-axis errors within 3 sigma, "
+      "mean NEES %.2f (expected 6)\n",
+      kTrials, 100 * fraction, mean_nees);
   std::printf("per axis rms error / mean sigma: ");
   for (int k = 0; k < 6; ++k) {
     std::printf("%.2f ", std::sqrt(sq_error_sum(k) / variance_sum(k)));

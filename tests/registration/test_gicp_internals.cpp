@@ -146,8 +146,8 @@ TEST(SortedCells, BlocksMatchBruteForce) {
 TEST(PlaneRegularization, MatchesEigenDecomposition) {
   std::mt19937 rng(29);
   std::normal_distribution<double> n(0, 1);
-  const std::vector<Eigen::Vector3d> shapes = {
-      {1, 1, 1e-4}, {1, 0.05, 1e-3}, {1, 1e-3, 1e-3}, {1, 1e-9, 0}, {1, 0.7, 0.5}, {1, 1, 1}};
+  const std::vector<Eigen::Vector3d> shapes = {{1, 1, 1e-4}, {1, 0.05, 1e-3}, {1, 1e-3, 1e-3},
+                                               {1, 1e-9, 0}, {1, 0.7, 0.5},   {1, 1, 1}};
   for (int trial = 0; trial < 200; ++trial) {
     Eigen::Matrix3d Q = Eigen::Matrix3d::Identity();
     for (int k = 0; k < 9; ++k) Q(k / 3, k % 3) = n(rng);

@@ -36,8 +36,9 @@ TEST(GicpJacobian, MatchesNumericDifferences) {
       const Eigen::Vector3d minus = GicpResidual(t, s, RetractRight(T, -d), nullptr);
       numeric.col(k) = (plus - minus) / (2 * h);
     }
-    EXPECT_LT((J - numeric).cwiseAbs().maxCoeff(), 1e-6 * (1 + s.norm()))
-        << "analytic\n" << J << "\nnumeric\n" << numeric;
+    EXPECT_LT((J - numeric).cwiseAbs().maxCoeff(), 1e-6 * (1 + s.norm())) << "analytic\n"
+                                                                          << J << "\nnumeric\n"
+                                                                          << numeric;
   }
 }
 

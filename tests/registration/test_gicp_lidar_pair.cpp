@@ -2,8 +2,8 @@
 // example data): the reference transform is recovered within 5 cm and 1 degree.
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <Eigen/Eigenvalues>
+#include <cmath>
 #include <fstream>
 #include <string>
 
@@ -56,11 +56,12 @@ class LidarPair : public ::testing::Test {
     EXPECT_GT(r.num_inliers, r.num_source_points / 2);
     const GateDecision gate = CheckRegistration(r, init);
     EXPECT_TRUE(gate.accepted) << gate.reason;
-    std::printf("lidar pair: %d iterations, %zu/%zu inliers, fitness %.3f m, error vs reference "
-                "%.4f m %.4f deg, sigma(t) %.4f %.4f %.4f m\n",
-                r.iterations, r.num_inliers, r.num_source_points, r.fitness_m, dt, dr / kDeg,
-                std::sqrt(r.covariance(3, 3)), std::sqrt(r.covariance(4, 4)),
-                std::sqrt(r.covariance(5, 5)));
+    std::printf(
+        "lidar pair: %d iterations, %zu/%zu inliers, fitness %.3f m, error vs reference "
+        "%.4f m %.4f deg, sigma(t) %.4f %.4f %.4f m\n",
+        r.iterations, r.num_inliers, r.num_source_points, r.fitness_m, dt, dr / kDeg,
+        std::sqrt(r.covariance(3, 3)), std::sqrt(r.covariance(4, 4)),
+        std::sqrt(r.covariance(5, 5)));
   }
   static GicpParams params_;
   static GicpCloud* target_;

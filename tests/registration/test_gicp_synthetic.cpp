@@ -28,7 +28,7 @@ GicpParams ClientParams() {
 struct Scene {
   SE3 T_target_source;  // ground truth
   GicpCloud target;
-  PointCloud source;    // in the source frame
+  PointCloud source;  // in the source frame
 };
 
 Scene MakeScene(uint32_t seed) {
@@ -67,8 +67,7 @@ TEST_P(InjectedOffset, IsRecoveredAndAccepted) {
   const Scene& scene = SharedScene();
   const SE3 init = Perturb(scene.T_target_source, GetParam());
   const RegistrationResult r = AlignGicp(scene.target, scene.source, init, ClientParams());
-  const double dt =
-      (r.T_target_source.translation() - scene.T_target_source.translation()).norm();
+  const double dt = (r.T_target_source.translation() - scene.T_target_source.translation()).norm();
   const double dr = RotationAngle(r.T_target_source, scene.T_target_source);
   EXPECT_TRUE(r.converged);
   EXPECT_LT(dt, 0.05) << "translation error, m";
@@ -79,13 +78,12 @@ TEST_P(InjectedOffset, IsRecoveredAndAccepted) {
               r.num_source_points, r.fitness_m, r.error / r.num_inliers);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    UpTo2mAnd5deg, InjectedOffset,
-    ::testing::Values(Offset{{0, 0, 1}, 5 * kDeg, {2.0, 0, 0}},
-                      Offset{{0, 0, 1}, -5 * kDeg, {0, -2.0, 0}},
-                      Offset{{1, 1, 0}, 5 * kDeg, {1.2, 1.2, 0.8}},
-                      Offset{{1, -2, 3}, 4 * kDeg, {-1.4, 1.0, -0.9}},
-                      Offset{{0, 1, 0}, 3 * kDeg, {0, 0, 2.0}}));
+INSTANTIATE_TEST_SUITE_P(UpTo2mAnd5deg, InjectedOffset,
+                         ::testing::Values(Offset{{0, 0, 1}, 5 * kDeg, {2.0, 0, 0}},
+                                           Offset{{0, 0, 1}, -5 * kDeg, {0, -2.0, 0}},
+                                           Offset{{1, 1, 0}, 5 * kDeg, {1.2, 1.2, 0.8}},
+                                           Offset{{1, -2, 3}, 4 * kDeg, {-1.4, 1.0, -0.9}},
+                                           Offset{{0, 1, 0}, 3 * kDeg, {0, 0, 2.0}}));
 
 TEST(GicpGate, FifteenMetresOffIsRejected) {
   const Scene& scene = SharedScene();
@@ -96,8 +94,11 @@ TEST(GicpGate, FifteenMetresOffIsRejected) {
     EXPECT_FALSE(gate.accepted) << "accepted with correction " << gate.correction_m << " m";
     const double dt =
         (r.T_target_source.translation() - scene.T_target_source.translation()).norm();
-    std::printf("15 m off: rejected=%d (%s), result %.2f m from truth, inliers %zu/%zu fitness %.3f error/inlier %.2f\n", !gate.accepted,
-                gate.reason.c_str(), dt, r.num_inliers, r.num_source_points, r.fitness_m, r.error / r.num_inliers);
+    std::printf(
+        "15 m off: rejected=%d (%s), result %.2f m from truth, inliers %zu/%zu fitness %.3f "
+        "error/inlier %.2f\n",
+        !gate.accepted, gate.reason.c_str(), dt, r.num_inliers, r.num_source_points, r.fitness_m,
+        r.error / r.num_inliers);
   }
 }
 

@@ -30,19 +30,23 @@ double HitBox(const Box& b, const Eigen::Vector3d& o, const Eigen::Vector3d& d) 
 }
 }  // namespace
 
-DepthImage BoxScene::Render(const PinholeCamera& camera, const SE3& T_map_cam, double max_depth_m) const {
+DepthImage BoxScene::Render(const PinholeCamera& camera, const SE3& T_map_cam,
+                            double max_depth_m) const {
   DepthImage depth(camera.width, camera.height);
   const Eigen::Vector3d o = T_map_cam.translation();
   const Eigen::Matrix3d R = T_map_cam.rotation();
   for (int v = 0; v < camera.height; ++v) {
     for (int u = 0; u < camera.width; ++u) {
       // Direction with unit optical-axis component, so the hit parameter t is the depth z.
-      const Eigen::Vector3d d = R * Eigen::Vector3d((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
+      const Eigen::Vector3d d =
+          R * Eigen::Vector3d((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
       double t = std::numeric_limits<double>::infinity();
       if (d.z() < -1e-12) {
         const double tg = (ground_z - o.z()) / d.z();
         const Eigen::Vector3d g = o + tg * d;
-        if (g.x() >= ground.min.x() && g.x() < ground.max.x() && g.y() >= ground.min.y() && g.y() < ground.max.y()) t = tg;
+        if (g.x() >= ground.min.x() && g.x() < ground.max.x() && g.y() >= ground.min.y() &&
+            g.y() < ground.max.y())
+          t = tg;
       }
       for (const Box& b : boxes) t = std::min(t, HitBox(b, o, d));
       if (t < max_depth_m) depth.at(u, v) = static_cast<float>(t);
@@ -55,14 +59,17 @@ PointCloud BoxScene::Sample(double s) const {
   PointCloud cloud;
   auto inside_box = [&](const Eigen::Vector3d& p) {
     for (const Box& b : boxes) {
-      if ((p.array() > b.min.array() + 1e-6).all() && (p.array() < b.max.array() - 1e-6).all()) return true;
+      if ((p.array() > b.min.array() + 1e-6).all() && (p.array() < b.max.array() - 1e-6).all())
+        return true;
     }
     return false;
   };
   for (double x = ground.min.x(); x < ground.max.x(); x += s) {
     for (double y = ground.min.y(); y < ground.max.y(); y += s) {
       bool covered = false;
-      for (const Box& b : boxes) covered |= x > b.min.x() && x < b.max.x() && y > b.min.y() && y < b.max.y() && b.min.z() <= ground_z;
+      for (const Box& b : boxes)
+        covered |= x > b.min.x() && x < b.max.x() && y > b.min.y() && y < b.max.y() &&
+                   b.min.z() <= ground_z;
       if (!covered) cloud.emplace_back(float(x), float(y), float(ground_z));
     }
   }
@@ -86,7 +93,8 @@ PointCloud BoxScene::Sample(double s) const {
       }
     }
     for (double a = s; a < e.x(); a += s) {
-      for (double c = s; c < e.y(); c += s) cloud.emplace_back(float(b.min.x() + a), float(b.min.y() + c), float(b.max.z()));
+      for (double c = s; c < e.y(); c += s)
+        cloud.emplace_back(float(b.min.x() + a), float(b.min.y() + c), float(b.max.z()));
     }
   }
   return cloud;

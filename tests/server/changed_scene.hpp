@@ -15,12 +15,13 @@ inline constexpr double kGroundZ = -0.4;
 // Boxes (5 m) are taller than th_ch but lower than the 8 m high cameras, so their tops are
 // seen (a top above the camera is only grazed by free rays at voxel resolution, which the
 // method cannot tell from a removal).
-inline const Box kBoxA{{14, 10, kGroundZ}, {20, 15, 4.6}};   // in the prior, removed in the changed scene
-inline const Box kBoxB{{2, 10, kGroundZ}, {7, 15, 4.6}};     // in both
-inline const Box kBoxC{{30, 10, kGroundZ}, {36, 15, 4.6}};   // new in the changed scene
+inline const Box kBoxA{{14, 10, kGroundZ},
+                       {20, 15, 4.6}};  // in the prior, removed in the changed scene
+inline const Box kBoxB{{2, 10, kGroundZ}, {7, 15, 4.6}};    // in both
+inline const Box kBoxC{{30, 10, kGroundZ}, {36, 15, 4.6}};  // new in the changed scene
 inline constexpr double kCameraHeight = 8.0;
-inline constexpr double kMaxDepth = 50.0;   // th_d of the paper
-inline constexpr double kPitch = 0.35;      // 20 degrees down
+inline constexpr double kMaxDepth = 50.0;  // th_d of the paper
+inline constexpr double kPitch = 0.35;     // 20 degrees down
 
 inline BoxScene PriorScene() {
   BoxScene s;
@@ -69,8 +70,9 @@ inline std::string PngString(const DepthImage& d) {
 inline nlohmann::json MetaJson(int64_t t_ns, const SE3& T) {
   const Eigen::Quaterniond q(T.rotation());
   const Eigen::Vector3d t = T.translation();
-  return nlohmann::json{{"t_ns", t_ns}, {"T_map_cam", {{"t", {t.x(), t.y(), t.z()}}, {"q", {q.w(), q.x(), q.y(), q.z()}}}}};
+  return nlohmann::json{
+      {"t_ns", t_ns},
+      {"T_map_cam", {{"t", {t.x(), t.y(), t.z()}}, {"q", {q.w(), q.x(), q.y(), q.z()}}}}};
 }
-
 
 }  // namespace mapdelta::testing

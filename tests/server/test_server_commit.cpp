@@ -3,8 +3,8 @@
 // Fast path: session cloud from the clouds stored at upload, observed octrees built on two
 // threads in chunks of 4 keyframes and merged. Simple path: one chunk, i.e. one octree for
 // the whole session built on one thread, and every keyframe cloud recomputed from its PNG
-// (the clouds were stored with other parameters, so the commit must not use them). Both must give byte-identical
-// aggregates and changes and octrees that know exactly the same voxels.
+// (the clouds were stored with other parameters, so the commit must not use them). Both must give
+// byte-identical aggregates and changes and octrees that know exactly the same voxels.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -44,14 +44,16 @@ int64_t ImportAndUpload(MapService& service, const fs::path& dir) {
   const std::string prior = (dir / "prior.pcd").string();
   WriteCloud(prior, PriorScene().Sample(0.4));
   service.ImportPriorFile(prior, "test");
-  const int64_t s = service.CreateSession({{"vehicle_id", "car"}, {"camera", kCamera}})["session_id"];
+  const int64_t s =
+      service.CreateSession({{"vehicle_id", "car"}, {"camera", kCamera}})["session_id"];
   const BoxScene scene = ChangedScene();
   int64_t seq = 0;
   for (double x = -5; x <= 45; x += 2.5, ++seq) {
     const SE3 T = CameraLookingMinusY(x, 25.0, kCameraHeight, kPitch);
     const auto png = EncodeDepthPng(scene.Render(TestCamera(), T, kMaxDepth));
     bool stored = false;
-    service.PutKeyframe(s, seq, MetaJson(1000000000LL * (seq + 1), T), Bytes(png.begin(), png.end()), &stored);
+    service.PutKeyframe(s, seq, MetaJson(1000000000LL * (seq + 1), T),
+                        Bytes(png.begin(), png.end()), &stored);
   }
   return s;
 }
@@ -124,7 +126,8 @@ template <typename Fn>
 void ForEachProbe(Fn fn) {
   for (int i = 0; i < 250; ++i) {
     for (int j = 0; j < 135; ++j) {
-      for (int k = 0; k < 38; ++k) fn(Point(float(-30.2 + 0.4 * i), float(-12.2 + 0.4 * j), float(-3.0 + 0.4 * k)));
+      for (int k = 0; k < 38; ++k)
+        fn(Point(float(-30.2 + 0.4 * i), float(-12.2 + 0.4 * j), float(-3.0 + 0.4 * k)));
     }
   }
 }
@@ -192,7 +195,8 @@ TEST_F(CommitPaths, ObservedTileDownloadHoldsThatTileOnly) {
     SCOPED_TRACE(tile);
     const FilePayload bt = fast_->GetObservedTile(tile);
     ASSERT_EQ(std::string(bt.bytes.begin(), bt.bytes.begin() + 28), "# Octomap OcTree binary file");
-    const ObservedArea cut = ObservedArea::DeserializeBinary(std::string(bt.bytes.begin(), bt.bytes.end()));
+    const ObservedArea cut =
+        ObservedArea::DeserializeBinary(std::string(bt.bytes.begin(), bt.bytes.end()));
     const AxisAlignedBox b = TileGrid(20).Bounds(id);
     size_t inside = 0, outside_known_in_whole = 0, mismatches = 0, leaks = 0;
     ForEachProbe([&](const Point& p) {
@@ -204,7 +208,8 @@ TEST_F(CommitPaths, ObservedTileDownloadHoldsThatTileOnly) {
       // The 0.8 m voxel holding p: if it does not overlap the tile, the download must not
       // know it.
       const double vx = std::floor(p.x() / 0.8) * 0.8, vy = std::floor(p.y() / 0.8) * 0.8;
-      const bool overlaps = vx + 0.8 > b.min.x() && vx < b.max.x() && vy + 0.8 > b.min.y() && vy < b.max.y();
+      const bool overlaps =
+          vx + 0.8 > b.min.x() && vx < b.max.x() && vy + 0.8 > b.min.y() && vy < b.max.y();
       if (overlaps) return;
       outside_known_in_whole += whole.IsObserved(p);
       leaks += cut.IsObserved(p);
@@ -223,7 +228,8 @@ TEST_F(CommitPaths, ObservedTileDownloadHoldsThatTileOnly) {
 // reclassified) resumes by reclassifying the neighbours against that version; it does not
 // make a second version. Runs last: it changes the fast database.
 TEST_F(CommitPaths, RefreshResumedAfterItsVersionFinishesWithoutASecondVersion) {
-  const Json job = fast_->CreateJob({{"type", "refresh"}, {"bbox", {-30, -10, 70, 40}}, {"min_confidence", 0.6}});
+  const Json job = fast_->CreateJob(
+      {{"type", "refresh"}, {"bbox", {-30, -10, 70, 40}}, {"min_confidence", 0.6}});
   fast_->RunQueuedJobsNow();
   const int64_t id = job["job_id"];
   const Json done = fast_->GetJob(id);
@@ -243,7 +249,8 @@ TEST_F(CommitPaths, RefreshResumedAfterItsVersionFinishesWithoutASecondVersion) 
   // Simulate the crash between the version's transaction and the neighbours' one.
   {
     sql::Db db((*dir_ / "fast.db").string());
-    db.Exec("UPDATE jobs SET state = 'running', finished_ms = NULL WHERE id = " + std::to_string(id));
+    db.Exec("UPDATE jobs SET state = 'running', finished_ms = NULL WHERE id = " +
+            std::to_string(id));
     db.Exec("UPDATE tile_changes SET prior_version = 1, changes = x'' WHERE prior_version = 2");
   }
   EXPECT_EQ(fast_->storage().jobs().RequeueInterrupted(NowMs()), 1);

@@ -22,7 +22,8 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("mds_core_" + name + "_" + std::to_string(::getpid()));
+  const fs::path d =
+      fs::temp_directory_path() / ("mds_core_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
@@ -116,7 +117,8 @@ TEST(BlobCodec, SessionOctreesRoundTripAndCorruptionIsRefused) {
 
 TEST(Config, ReportsEveryProblemAtOnceAndLoadsTheExample) {
   const fs::path d = TempDir("config");
-  std::ofstream(d / "bad.yaml") << "http:\n  prot: 1\n  threads: many\nstorage:\n  tile_size_m: -3\nextra: 1\n";
+  std::ofstream(d / "bad.yaml")
+      << "http:\n  prot: 1\n  threads: many\nstorage:\n  tile_size_m: -3\nextra: 1\n";
   try {
     LoadServerConfig((d / "bad.yaml").string());
     FAIL() << "bad config accepted";
@@ -129,12 +131,14 @@ TEST(Config, ReportsEveryProblemAtOnceAndLoadsTheExample) {
       EXPECT_NE(m.find(key), std::string::npos) << key << " missing in: " << m;
     }
   }
-  const ServerConfig example = LoadServerConfig(std::string(MAPDELTA_SOURCE_DIR) + "/config/server.example.yaml");
+  const ServerConfig example =
+      LoadServerConfig(std::string(MAPDELTA_SOURCE_DIR) + "/config/server.example.yaml");
   EXPECT_EQ(example.http.port, 8080);
   EXPECT_DOUBLE_EQ(example.classify.th_ch_m, 3.2);
   // The effective config echoed at start-up is itself a valid config file.
   std::ofstream(d / "echo.yaml") << DumpServerConfig(example);
-  EXPECT_EQ(LoadServerConfig((d / "echo.yaml").string()).storage.database, example.storage.database);
+  EXPECT_EQ(LoadServerConfig((d / "echo.yaml").string()).storage.database,
+            example.storage.database);
   fs::remove_all(d);
 }
 

@@ -33,19 +33,22 @@ class ServerHttpTest : public HttpServerTest, public ::testing::WithParamInterfa
   std::string Backend() const override { return GetParam(); }
 
   int64_t CreateSession(const std::string& vehicle) {
-    const Json camera{{"width", 160}, {"height", 90}, {"fx", 80}, {"fy", 80}, {"cx", 80}, {"cy", 45}};
-    auto [status, body] = Call(client_->Post("/v1/sessions", H(vehicle_),
-                                             Json{{"vehicle_id", vehicle}, {"camera", camera}}.dump(), "application/json"));
+    const Json camera{{"width", 160}, {"height", 90}, {"fx", 80},
+                      {"fy", 80},     {"cx", 80},     {"cy", 45}};
+    auto [status, body] = Call(client_->Post(
+        "/v1/sessions", H(vehicle_), Json{{"vehicle_id", vehicle}, {"camera", camera}}.dump(),
+        "application/json"));
     EXPECT_EQ(status, 201);
     return body.value("session_id", int64_t{-1});
   }
 
-  httplib::Result PutKeyframe(int64_t session, int64_t seq, const Json& meta, const std::string& png,
-                              const std::string& auth = "") {
+  httplib::Result PutKeyframe(int64_t session, int64_t seq, const Json& meta,
+                              const std::string& png, const std::string& auth = "") {
     httplib::MultipartFormDataItems items = {{"meta", meta.dump(), "", "application/json"},
                                              {"depth", png, "depth.png", "image/png"}};
-    return client_->Put("/v1/sessions/" + std::to_string(session) + "/keyframes/" + std::to_string(seq),
-                        H(auth.empty() ? vehicle_ : auth), items);
+    return client_->Put(
+        "/v1/sessions/" + std::to_string(session) + "/keyframes/" + std::to_string(seq),
+        H(auth.empty() ? vehicle_ : auth), items);
   }
 
   // Drives along x at y_cam, kCameraHeight high, looking at the boxes; uploads every keyframe.
@@ -55,7 +58,8 @@ class ServerHttpTest : public HttpServerTest, public ::testing::WithParamInterfa
     for (double x = -5; x <= 45; x += 2.5, ++seq) {
       const SE3 T = CameraLookingMinusY(x, y_cam, kCameraHeight, kPitch);
       const DepthImage depth = scene.Render(TestCamera(), T, kMaxDepth);
-      auto [status, body] = Call(PutKeyframe(session, seq, MetaJson(1000000000LL * (seq + 1), T), PngString(depth)));
+      auto [status, body] =
+          Call(PutKeyframe(session, seq, MetaJson(1000000000LL * (seq + 1), T), PngString(depth)));
       ASSERT_EQ(status, 201) << body.dump();
     }
   }
@@ -92,14 +96,17 @@ TEST_P(ServerHttpTest, AuthRolesAnd401Vs403) {
   EXPECT_EQ(Call(client_->Post("/v1/sessions", H(reader_), "{}", "application/json")).first, 403);
   // Revoked tokens are rejected from then on.
   const CreatedToken t = CreateToken(service_->storage(), "tmp", Role::kReader, NowMs());
-  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer " + t.secret))).first, 200);
+  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer " + t.secret))).first,
+            200);
   ASSERT_TRUE(service_->storage().tokens().Revoke(t.record.id, NowMs()));
-  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer " + t.secret))).first, 401);
+  EXPECT_EQ(Call(client_->Get("/v1/changes/tiles?bbox=0,0,1,1", H("Bearer " + t.secret))).first,
+            401);
   EXPECT_EQ(Call(client_->Get("/nope", H(admin_))).first, 404);
   // The OpenAPI document is served and names every route the server has.
   auto doc = client_->Get("/v1/openapi.yaml");
   ASSERT_TRUE(doc && doc->status == 200);
-  for (const char* route : {"/v1/sessions/{session_id}/keyframes/{seq}:", "/v1/changes/tiles/{tile}:", "/v1/admin/jobs/{job_id}/cancel:"}) {
+  for (const char* route : {"/v1/sessions/{session_id}/keyframes/{seq}:",
+                            "/v1/changes/tiles/{tile}:", "/v1/admin/jobs/{job_id}/cancel:"}) {
     EXPECT_NE(doc->body.find(route), std::string::npos) << route;
   }
   // Request ids: a client's own id is echoed.
@@ -112,14 +119,25 @@ TEST_P(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
   const int64_t s = CreateSession("car-1");
   const SE3 T = CameraLookingMinusY(0, 25, kCameraHeight, kPitch);
   const std::string png = PngString(ChangedScene().Render(TestCamera(), T, kMaxDepth));
-  auto code = [&](const httplib::Result& r) { return Call(r).second["error"].value("code", std::string()); };
+  auto code = [&](const httplib::Result& r) {
+    return Call(r).second["error"].value("code", std::string());
+  };
   // Malformed JSON and bad fields in session creation.
-  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), "{\"vehicle_id\":", "application/json")), "invalid_json");
-  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), R"({"vehicle_id":"x","camera":{"width":-1}})", "application/json")), "invalid_argument");
-  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), std::string(70000, ' '), "application/json")), "payload_too_large");
+  EXPECT_EQ(
+      code(client_->Post("/v1/sessions", H(vehicle_), "{\"vehicle_id\":", "application/json")),
+      "invalid_json");
+  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_),
+                               R"({"vehicle_id":"x","camera":{"width":-1}})", "application/json")),
+            "invalid_argument");
+  EXPECT_EQ(
+      code(client_->Post("/v1/sessions", H(vehicle_), std::string(70000, ' '), "application/json")),
+      "payload_too_large");
   // A keyframe-sized body is fine for PUT but too large for a JSON route.
-  EXPECT_EQ(code(client_->Post("/v1/admin/jobs", H(admin_), std::string(200000, ' '), "application/json")), "payload_too_large");
-  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), "{}", "text/plain")), "unsupported_media_type");
+  EXPECT_EQ(code(client_->Post("/v1/admin/jobs", H(admin_), std::string(200000, ' '),
+                               "application/json")),
+            "payload_too_large");
+  EXPECT_EQ(code(client_->Post("/v1/sessions", H(vehicle_), "{}", "text/plain")),
+            "unsupported_media_type");
   // Keyframes: bad PNG, wrong size, NaN-ish pose, non-unit quaternion, unknown session.
   EXPECT_EQ(code(PutKeyframe(s, 0, MetaJson(1, T), "not a png")), "invalid_image");
   DepthImage small(80, 45);
@@ -136,11 +154,14 @@ TEST_P(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
   EXPECT_EQ(code(PutKeyframe(9999, 0, MetaJson(1, T), png)), "not_found");
   EXPECT_EQ(code(PutKeyframe(s, 0, MetaJson(1, T), png, reader_)), "forbidden");
   {
-    auto r = client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/0", H(vehicle_), "{}", "application/json");
+    auto r = client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/0", H(vehicle_), "{}",
+                          "application/json");
     EXPECT_EQ(code(r), "unsupported_media_type");
   }
   // Nothing stored so far.
-  EXPECT_EQ(Call(client_->Get("/v1/sessions/" + std::to_string(s), H(vehicle_))).second["keyframe_count"], 0);
+  EXPECT_EQ(
+      Call(client_->Get("/v1/sessions/" + std::to_string(s), H(vehicle_))).second["keyframe_count"],
+      0);
   // Out of order, then the right one, an identical retry (200), a conflicting one (409).
   EXPECT_EQ(code(PutKeyframe(s, 1, MetaJson(1, T), png)), "seq_out_of_order");
   EXPECT_EQ(Call(PutKeyframe(s, 0, MetaJson(1, T), png)).first, 201);
@@ -152,8 +173,10 @@ TEST_P(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
   EXPECT_EQ(session["keyframe_count"], 2);
   EXPECT_EQ(session["state"], "open");
   // Commit twice: the second is a conflict. Unknown session: 404.
-  EXPECT_EQ(Call(client_->Post("/v1/sessions/" + std::to_string(s) + "/commit", H(vehicle_))).first, 202);
-  EXPECT_EQ(code(client_->Post("/v1/sessions/" + std::to_string(s) + "/commit", H(vehicle_))), "session_not_open");
+  EXPECT_EQ(Call(client_->Post("/v1/sessions/" + std::to_string(s) + "/commit", H(vehicle_))).first,
+            202);
+  EXPECT_EQ(code(client_->Post("/v1/sessions/" + std::to_string(s) + "/commit", H(vehicle_))),
+            "session_not_open");
   EXPECT_EQ(code(PutKeyframe(s, 2, MetaJson(3, T), png)), "session_not_open");
   EXPECT_EQ(code(client_->Post("/v1/sessions/424242/commit", H(vehicle_))), "not_found");
   // Bad queries.
@@ -161,8 +184,13 @@ TEST_P(ServerHttpTest, UploadValidationStoresNothingHalfWay) {
   EXPECT_EQ(code(client_->Get("/v1/changes/tiles/abc", H(reader_))), "not_found");
   EXPECT_EQ(code(client_->Get("/v1/changes/tiles/1_x2", H(reader_))), "not_found");
   EXPECT_EQ(code(client_->Get("/v1/changes/tiles/1_2?format=pcd", H(reader_))), "invalid_argument");
-  EXPECT_EQ(code(client_->Post("/v1/admin/jobs", H(admin_), R"({"type":"explode"})", "application/json")), "invalid_argument");
-  EXPECT_EQ(code(client_->Post("/v1/admin/jobs", H(admin_), R"({"type":"reclassify","params":{"th_ch_m":-1}})", "application/json")), "invalid_argument");
+  EXPECT_EQ(
+      code(client_->Post("/v1/admin/jobs", H(admin_), R"({"type":"explode"})", "application/json")),
+      "invalid_argument");
+  EXPECT_EQ(
+      code(client_->Post("/v1/admin/jobs", H(admin_),
+                         R"({"type":"reclassify","params":{"th_ch_m":-1}})", "application/json")),
+      "invalid_argument");
   // The server still serves.
   EXPECT_EQ(Call(client_->Get("/health")).first, 200);
 }
@@ -174,11 +202,15 @@ TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   WriteCloud(prior_file, prior);
   std::ifstream in(prior_file, std::ios::binary);
   const std::string prior_bytes((std::istreambuf_iterator<char>(in)), {});
-  auto [st, imported] = Call(client_->Post("/v1/admin/prior?format=pcd", H(admin_), prior_bytes, "application/octet-stream"));
+  auto [st, imported] = Call(client_->Post("/v1/admin/prior?format=pcd", H(admin_), prior_bytes,
+                                           "application/octet-stream"));
   ASSERT_EQ(st, 201) << imported.dump();
   EXPECT_EQ(imported["prior_version"], 1);
   EXPECT_EQ(imported["points"], prior.size());
-  EXPECT_EQ(Call(client_->Post("/v1/admin/prior?format=pcd", H(admin_), "garbage", "application/octet-stream")).first, 400);
+  EXPECT_EQ(Call(client_->Post("/v1/admin/prior?format=pcd", H(admin_), "garbage",
+                               "application/octet-stream"))
+                .first,
+            400);
 
   // Prior tiles around a position.
   auto [st2, near] = Call(client_->Get("/v1/prior/tiles?x=17&y=12&radius=2", H(vehicle_)));
@@ -192,7 +224,8 @@ TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   UploadDrive(s1, 25.0);
   UploadDrive(s2, 24.0);
   for (int64_t s : {s1, s2}) {
-    auto [status, body] = Call(client_->Post("/v1/sessions/" + std::to_string(s) + "/commit", H(vehicle_)));
+    auto [status, body] =
+        Call(client_->Post("/v1/sessions/" + std::to_string(s) + "/commit", H(vehicle_)));
     ASSERT_EQ(status, 202);
     const Json job = WaitJob(body["job_id"]);
     ASSERT_EQ(job["state"], "succeeded") << job.dump(2);
@@ -204,20 +237,24 @@ TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
     }
     EXPECT_NE(reg["status"], "skipped") << reg.dump();
   }
-  EXPECT_EQ(Call(client_->Get("/v1/sessions/" + std::to_string(s1), H(reader_))).second["state"], "committed");
+  EXPECT_EQ(Call(client_->Get("/v1/sessions/" + std::to_string(s1), H(reader_))).second["state"],
+            "committed");
 
   // 3. Changed tiles, then every change point of every tile against the analytic truth.
-  auto [st3, listing] = Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&page_size=2", H(reader_)));
+  auto [st3, listing] =
+      Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&page_size=2", H(reader_)));
   ASSERT_EQ(st3, 200);
   EXPECT_EQ(listing["prior_version"], 1);
   ASSERT_GE(listing["total"].get<int>(), 2);
   EXPECT_LE(listing["tiles"].size(), 2u);
-  const Json all = Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&page_size=100", H(reader_))).second;
+  const Json all =
+      Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&page_size=100", H(reader_))).second;
   size_t n_new = 0, n_removed = 0, n_new_both = 0;
   std::vector<std::string> tiles;
   for (const Json& t : all["tiles"]) {
     tiles.push_back(t["tile"]);
-    const Json c = Call(client_->Get("/v1/changes/tiles/" + t["tile"].get<std::string>(), H(reader_))).second;
+    const Json c =
+        Call(client_->Get("/v1/changes/tiles/" + t["tile"].get<std::string>(), H(reader_))).second;
     for (const Json& p : c["new"]) {
       const Eigen::Vector3d x(p["p"][0], p["p"][1], p["p"][2]);
       // New: box C, or the ground that box A covered (not in the prior, seen now).
@@ -245,12 +282,16 @@ TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   for (const Json& p : strict["new"]) EXPECT_EQ(p["supported_by"].size(), 2u);
   // The listing with min_support counts exactly the points the per-tile query returns.
   const Json strict_list =
-      Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&min_support=2&min_confidence=0.7", H(reader_))).second;
+      Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&min_support=2&min_confidence=0.7",
+                        H(reader_)))
+          .second;
   ASSERT_GE(strict_list["tiles"].size(), 1u);
   EXPECT_EQ(strict_list["total"], strict_list["tiles"].size());
   for (const Json& t : strict_list["tiles"]) {
     const Json c = Call(client_->Get("/v1/changes/tiles/" + t["tile"].get<std::string>() +
-                                     "?min_support=2&min_confidence=0.7", H(reader_))).second;
+                                         "?min_support=2&min_confidence=0.7",
+                                     H(reader_)))
+                       .second;
     EXPECT_EQ(t["new_count"], c["new"].size());
     EXPECT_EQ(t["removed_count"], c["removed"].size());
     EXPECT_GT(c["new"].size() + c["removed"].size(), 0u);
@@ -282,9 +323,10 @@ TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   EXPECT_EQ(bt->body.rfind("# Octomap OcTree binary file", 0), 0u);
 
   // 4. Refresh everything changed with confidence >= 0.7 into version 2.
-  auto [st4, job] = Call(client_->Post("/v1/admin/jobs", H(admin_),
-                                       Json{{"type", "refresh"}, {"bbox", {-30, -10, 70, 40}}, {"min_confidence", 0.7}}.dump(),
-                                       "application/json"));
+  auto [st4, job] = Call(client_->Post(
+      "/v1/admin/jobs", H(admin_),
+      Json{{"type", "refresh"}, {"bbox", {-30, -10, 70, 40}}, {"min_confidence", 0.7}}.dump(),
+      "application/json"));
   ASSERT_EQ(st4, 202) << job.dump();
   const Json done = WaitJob(job["job_id"]);
   ASSERT_EQ(done["state"], "succeeded") << done.dump(2);
@@ -302,8 +344,10 @@ TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   };
   PointCloud v1, v2;
   for (const char* tile : {"0_0", "1_0"}) {
-    const PointCloud a = FetchCloud(std::string("/v1/prior/tiles/") + tile + "?version=1&format=pcd");
-    const PointCloud b = FetchCloud(std::string("/v1/prior/tiles/") + tile + "?version=2&format=pcd");
+    const PointCloud a =
+        FetchCloud(std::string("/v1/prior/tiles/") + tile + "?version=1&format=pcd");
+    const PointCloud b =
+        FetchCloud(std::string("/v1/prior/tiles/") + tile + "?version=2&format=pcd");
     v1.insert(v1.end(), a.begin(), a.end());
     v2.insert(v2.end(), b.begin(), b.end());
   }
@@ -314,7 +358,8 @@ TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   // prior point that has any current point within th_ch). Far faces may stay.
   auto count_visible_faces = [](const PointCloud& c, const Box& b) {
     return std::count_if(c.begin(), c.end(), [&](const Point& p) {
-      const bool front = std::abs(p.y() - b.max.y()) < 0.01, top = std::abs(p.z() - b.max.z()) < 0.01;
+      const bool front = std::abs(p.y() - b.max.y()) < 0.01,
+                 top = std::abs(p.z() - b.max.z()) < 0.01;
       return p.z() > kGroundZ + 2.4 + 0.1 && b.Distance(p.cast<double>()) < 0.01 && (front || top);
     });
   };
@@ -323,19 +368,24 @@ TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   EXPECT_LT(count_near(v2, kBoxA, 0.01), count_near(v1, kBoxA, 0.01));
   EXPECT_EQ(count_near(v2, kBoxB, 0.01), count_near(v1, kBoxB, 0.01));  // untouched box stays
   // Refreshed tiles start aggregating afresh: no changes listed for them any more.
-  const Json after = Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&min_confidence=0.7", H(reader_))).second;
+  const Json after =
+      Call(client_->Get("/v1/changes/tiles?bbox=-30,-10,70,40&min_confidence=0.7", H(reader_)))
+          .second;
   for (const Json& t : after["tiles"]) {
     EXPECT_EQ(std::find(tiles.begin(), tiles.end(), t["tile"].get<std::string>()), tiles.end())
         << t["tile"] << " still lists changes after refresh";
   }
 
   // 6. Reclassify with a new threshold is accepted and runs; metrics saw the ingest.
-  auto [st5, rjob] = Call(client_->Post("/v1/admin/jobs", H(admin_), R"({"type":"reclassify","params":{"th_ch_m":2.4}})", "application/json"));
+  auto [st5, rjob] =
+      Call(client_->Post("/v1/admin/jobs", H(admin_),
+                         R"({"type":"reclassify","params":{"th_ch_m":2.4}})", "application/json"));
   ASSERT_EQ(st5, 202);
   EXPECT_EQ(WaitJob(rjob["job_id"])["state"], "succeeded");
   const auto metrics = client_->Get("/metrics");
   ASSERT_TRUE(metrics);
-  EXPECT_NE(metrics->body.find("mapdelta_keyframes_ingested_total 42"), std::string::npos) << metrics->body;
+  EXPECT_NE(metrics->body.find("mapdelta_keyframes_ingested_total 42"), std::string::npos)
+      << metrics->body;
 }
 
 // Malformed input on every body and parameter: each gets a 4xx JSON error, nothing is stored,
@@ -345,7 +395,9 @@ TEST_P(ServerHttpTest, MalformedInputGets4xxAndTheServerKeepsServing) {
   const SE3 T = CameraLookingMinusY(0, 25, kCameraHeight, kPitch);
   const std::string png = PngString(ChangedScene().Render(TestCamera(), T, kMaxDepth));
   std::vector<std::pair<std::string, httplib::Result>> cases;
-  auto add = [&](const std::string& name, httplib::Result r) { cases.emplace_back(name, std::move(r)); };
+  auto add = [&](const std::string& name, httplib::Result r) {
+    cases.emplace_back(name, std::move(r));
+  };
   // Depth PNGs: truncated (header intact, data cut; and cut inside the header), a header
   // claiming 60000x60000 (a decompression bomb if decoded), 8-bit instead of 16-bit.
   add("png truncated", PutKeyframe(s, 0, MetaJson(1, T), png.substr(0, png.size() / 2)));
@@ -374,39 +426,57 @@ TEST_P(ServerHttpTest, MalformedInputGets4xxAndTheServerKeepsServing) {
     add("meta " + name, PutKeyframe(s, 0, bad, png));
   }
   const std::string meta_text = MetaJson(1, T).dump();
-  for (const std::string& text : {std::string("[1,2]"), std::string("null"), std::string("{\"t_ns\": NaN}"),
-                                  meta_text.substr(0, meta_text.size() - 3)}) {
-    httplib::MultipartFormDataItems items = {{"meta", text, "", "application/json"}, {"depth", png, "d.png", "image/png"}};
-    add("meta text " + text, client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/0", H(vehicle_), items));
+  for (const std::string& text :
+       {std::string("[1,2]"), std::string("null"), std::string("{\"t_ns\": NaN}"),
+        meta_text.substr(0, meta_text.size() - 3)}) {
+    httplib::MultipartFormDataItems items = {{"meta", text, "", "application/json"},
+                                             {"depth", png, "d.png", "image/png"}};
+    add("meta text " + text,
+        client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/0", H(vehicle_), items));
   }
   std::string inf_cov = MetaJson(1, T).dump();
   inf_cov.insert(inf_cov.size() - 1, ",\"covariance\":[1e400" + std::string(35 * 2, ' ') + "]");
   for (int i = 0; i < 35; ++i) inf_cov.replace(inf_cov.find(' '), 2, ",0");
   {
-    httplib::MultipartFormDataItems items = {{"meta", inf_cov, "", "application/json"}, {"depth", png, "d.png", "image/png"}};
-    add("covariance inf", client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/0", H(vehicle_), items));
+    httplib::MultipartFormDataItems items = {{"meta", inf_cov, "", "application/json"},
+                                             {"depth", png, "d.png", "image/png"}};
+    add("covariance inf",
+        client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/0", H(vehicle_), items));
   }
   // Sequence numbers: beyond max_keyframes_per_session, beyond int64 (no route), negative.
   add("seq huge", PutKeyframe(s, 999999999999999999LL, MetaJson(1, T), png));
   {
-    httplib::MultipartFormDataItems items = {{"meta", MetaJson(1, T).dump(), "", "application/json"}, {"depth", png, "d.png", "image/png"}};
-    add("seq 2^64", client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/18446744073709551616", H(vehicle_), items));
-    add("seq -1", client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/-1", H(vehicle_), items));
-    add("session 2^64", client_->Put("/v1/sessions/99999999999999999999/keyframes/0", H(vehicle_), items));
+    httplib::MultipartFormDataItems items = {
+        {"meta", MetaJson(1, T).dump(), "", "application/json"},
+        {"depth", png, "d.png", "image/png"}};
+    add("seq 2^64",
+        client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/18446744073709551616",
+                     H(vehicle_), items));
+    add("seq -1",
+        client_->Put("/v1/sessions/" + std::to_string(s) + "/keyframes/-1", H(vehicle_), items));
+    add("session 2^64",
+        client_->Put("/v1/sessions/99999999999999999999/keyframes/0", H(vehicle_), items));
   }
   // Session creation with wrong types and a width that would wrap when narrowed to int.
-  for (const std::string& body :
-       {std::string(R"({"vehicle_id":5,"camera":{}})"), std::string(R"({"vehicle_id":"v","camera":"x"})"),
-        std::string(R"({"vehicle_id":"v","camera":{"width":4294967456,"height":90,"fx":80,"fy":80,"cx":80,"cy":45}})"),
-        std::string(R"({"vehicle_id":"v","camera":{"width":160,"height":90,"fx":1e400,"fy":80,"cx":80,"cy":45}})"),
-        std::string(R"({"vehicle_id":"v","depth_scale":"big","camera":{"width":160,"height":90,"fx":80,"fy":80,"cx":80,"cy":45}})"),
-        std::string("[]"), std::string("\"text\""), std::string("{\"vehicle_id\":\"v\",")}) {
+  for (
+      const std::string& body :
+      {std::string(R"({"vehicle_id":5,"camera":{}})"),
+       std::string(R"({"vehicle_id":"v","camera":"x"})"),
+       std::string(
+           R"({"vehicle_id":"v","camera":{"width":4294967456,"height":90,"fx":80,"fy":80,"cx":80,"cy":45}})"),
+       std::string(
+           R"({"vehicle_id":"v","camera":{"width":160,"height":90,"fx":1e400,"fy":80,"cx":80,"cy":45}})"),
+       std::string(
+           R"({"vehicle_id":"v","depth_scale":"big","camera":{"width":160,"height":90,"fx":80,"fy":80,"cx":80,"cy":45}})"),
+       std::string("[]"), std::string("\"text\""), std::string("{\"vehicle_id\":\"v\",")}) {
     add("session " + body, client_->Post("/v1/sessions", H(vehicle_), body, "application/json"));
   }
   // Admin jobs with wrong types and overflowing values.
   for (const std::string& body :
-       {std::string(R"({"type":"refresh","bbox":["a",0,1,1]})"), std::string(R"({"type":"refresh","tiles":[1,2]})"),
-        std::string(R"({"type":"refresh","tiles":["99999999999_0"]})"), std::string(R"({"type":"refresh","bbox":[0,0,1,1],"min_confidence":"high"})"),
+       {std::string(R"({"type":"refresh","bbox":["a",0,1,1]})"),
+        std::string(R"({"type":"refresh","tiles":[1,2]})"),
+        std::string(R"({"type":"refresh","tiles":["99999999999_0"]})"),
+        std::string(R"({"type":"refresh","bbox":[0,0,1,1],"min_confidence":"high"})"),
         std::string(R"({"type":"refresh","bbox":[1e300,1e300,1e300,1e300]})"),
         std::string(R"({"type":"reclassify","params":{"min_voxel_support":4294967297}})"),
         std::string(R"({"type":7})"), std::string("[]")}) {
@@ -414,20 +484,27 @@ TEST_P(ServerHttpTest, MalformedInputGets4xxAndTheServerKeepsServing) {
   }
   // Query parameters.
   for (const std::string& path :
-       {std::string("/v1/changes/tiles?bbox=nan,0,1,1"), std::string("/v1/changes/tiles?bbox=1e300,1e300,1e300,1e300"),
-        std::string("/v1/changes/tiles?bbox=0,0,1,1&page=abc"), std::string("/v1/changes/tiles?bbox=0,0,1,1&page=99999999999999999999"),
-        std::string("/v1/changes/tiles?bbox=0,0,1,1&page_size=0"), std::string("/v1/changes/tiles?bbox=0,0,1,1&min_confidence=inf"),
-        std::string("/v1/changes/tiles?bbox=0,0,1,1&min_support=-1"), std::string("/v1/changes/tiles/99999999999_1"),
-        std::string("/v1/changes/tiles/0_0?min_support=x"), std::string("/v1/observed/tiles/99999999999_1.bt"),
+       {std::string("/v1/changes/tiles?bbox=nan,0,1,1"),
+        std::string("/v1/changes/tiles?bbox=1e300,1e300,1e300,1e300"),
+        std::string("/v1/changes/tiles?bbox=0,0,1,1&page=abc"),
+        std::string("/v1/changes/tiles?bbox=0,0,1,1&page=99999999999999999999"),
+        std::string("/v1/changes/tiles?bbox=0,0,1,1&page_size=0"),
+        std::string("/v1/changes/tiles?bbox=0,0,1,1&min_confidence=inf"),
+        std::string("/v1/changes/tiles?bbox=0,0,1,1&min_support=-1"),
+        std::string("/v1/changes/tiles/99999999999_1"),
+        std::string("/v1/changes/tiles/0_0?min_support=x"),
+        std::string("/v1/observed/tiles/99999999999_1.bt"),
         std::string("/v1/observed/tiles/2147483647_2147483647.bt")}) {
     add("GET " + path, client_->Get(path, H(reader_)));
   }
   add("prior near inf", client_->Get("/v1/prior/tiles?x=1e300&y=0", H(vehicle_)));
-  add("prior truncated", client_->Post("/v1/admin/prior?format=pcd", H(admin_),
-                                       "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-                                       "WIDTH 1000\nHEIGHT 1\nPOINTS 1000\nDATA binary\n\x01\x02",
-                                       "application/octet-stream"));
-  add("prior ply garbage", client_->Post("/v1/admin/prior?format=ply", H(admin_), std::string(1000, '\xff'), "application/octet-stream"));
+  add("prior truncated",
+      client_->Post("/v1/admin/prior?format=pcd", H(admin_),
+                    "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                    "WIDTH 1000\nHEIGHT 1\nPOINTS 1000\nDATA binary\n\x01\x02",
+                    "application/octet-stream"));
+  add("prior ply garbage", client_->Post("/v1/admin/prior?format=ply", H(admin_),
+                                         std::string(1000, '\xff'), "application/octet-stream"));
   for (auto& [name, r] : cases) {
     SCOPED_TRACE(name);
     ASSERT_TRUE(r) << "no response";
@@ -436,7 +513,9 @@ TEST_P(ServerHttpTest, MalformedInputGets4xxAndTheServerKeepsServing) {
     EXPECT_EQ(r->get_header_value("Content-Type"), "application/json");
   }
   // Nothing was stored, and the server still takes a good keyframe.
-  EXPECT_EQ(Call(client_->Get("/v1/sessions/" + std::to_string(s), H(vehicle_))).second["keyframe_count"], 0);
+  EXPECT_EQ(
+      Call(client_->Get("/v1/sessions/" + std::to_string(s), H(vehicle_))).second["keyframe_count"],
+      0);
   EXPECT_EQ(Call(PutKeyframe(s, 0, MetaJson(1, T), png)).first, 201);
   EXPECT_EQ(Call(client_->Get("/health")).first, 200);
   EXPECT_EQ(service_->storage().priors().ListVersions().size(), 0u);

@@ -102,9 +102,7 @@ TEST(ServerConfig, AKeyThatIsNotANameIsReportedNotAnAbort) {
     FAIL() << "a complex key was accepted";
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::kInvalidArgument);  // config problems exit 2, as usage errors
-    EXPECT_NE(std::string(e.what()).find("http.?: unknown key"),
-              std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("http.?: unknown key"), std::string::npos) << e.what();
   }
   std::filesystem::remove(path);
 }

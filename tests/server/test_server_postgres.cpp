@@ -365,7 +365,8 @@ TEST(PostgresStart, TheServerBinaryExitsWithOneClearLine) {
     const auto [code, err] = RunServer(prefix + "\"" + url + "\"\n", dir);
     EXPECT_EQ(code, 1) << err;
     // The CLI names the command first, like every error of mapdelta-server.
-    EXPECT_EQ(err.rfind("mapdelta-server serve: error: cannot connect to PostgreSQL", 0), 0u) << err;
+    EXPECT_EQ(err.rfind("mapdelta-server serve: error: cannot connect to PostgreSQL", 0), 0u)
+        << err;
     EXPECT_NE(err.find(expected), std::string::npos) << err;
     EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
   }

@@ -17,8 +17,8 @@
 
 #include "changed_scene.hpp"
 #include "mapdelta/common/cloud_io.hpp"
-#include "server_process.hpp"
 #include "server_backends.hpp"
+#include "server_process.hpp"
 
 #include <httplib.h>  // last: its <resolv.h> defines macros that break Eigen
 
@@ -42,11 +42,12 @@ class ServerProcessTest : public ::testing::TestWithParam<std::string> {
   void NewDatabase() {
     server::ServerConfig db;
     UseFreshDatabase(GetParam(), dir_, &db);
-    std::ofstream(config_) << "storage:\n  backend: " << db.storage.backend << "\n  database: \""
-                           << db.storage.database << "\"\n  postgres_url: \"" << db.storage.postgres_url
-                           << "\"\n  tile_size_m: 20\njobs:\n  lease_s: 2\nlog:\n  level: info\n  format: json\n"
-                           << "pipeline:\n  max_depth_m: 50\n  free_space_depth_m: 20\n  pixel_stride: 1\n"
-                           << "classify:\n  th_ch_m: 2.4\n";
+    std::ofstream(config_)
+        << "storage:\n  backend: " << db.storage.backend << "\n  database: \""
+        << db.storage.database << "\"\n  postgres_url: \"" << db.storage.postgres_url
+        << "\"\n  tile_size_m: 20\njobs:\n  lease_s: 2\nlog:\n  level: info\n  format: json\n"
+        << "pipeline:\n  max_depth_m: 50\n  free_space_depth_m: 20\n  pixel_stride: 1\n"
+        << "classify:\n  th_ch_m: 2.4\n";
     admin_ = Token("admin");
     vehicle_ = Token("vehicle");
   }
@@ -57,17 +58,21 @@ class ServerProcessTest : public ::testing::TestWithParam<std::string> {
 
   std::string Token(const std::string& role) {
     int code = 0;
-    const std::string out = RunCli("token create --config " + config_ + " --role " + role + " --name t-" + role, &code);
+    const std::string out =
+        RunCli("token create --config " + config_ + " --role " + role + " --name t-" + role, &code);
     EXPECT_EQ(code, 0) << out;
     const auto at = out.find("token: ");
-    return at == std::string::npos ? "" : "Bearer " + out.substr(at + 7, out.find('\n', at) - at - 7);
+    return at == std::string::npos ? ""
+                                   : "Bearer " + out.substr(at + 7, out.find('\n', at) - at - 7);
   }
 
   httplib::Headers H(const std::string& t) { return {{"Authorization", t}}; }
 
   int64_t CreateSession(httplib::Client& c) {
-    const Json camera{{"width", 160}, {"height", 90}, {"fx", 80}, {"fy", 80}, {"cx", 80}, {"cy", 45}};
-    auto r = c.Post("/v1/sessions", H(vehicle_), Json{{"vehicle_id", "car"}, {"camera", camera}}.dump(), "application/json");
+    const Json camera{{"width", 160}, {"height", 90}, {"fx", 80},
+                      {"fy", 80},     {"cx", 80},     {"cy", 45}};
+    auto r = c.Post("/v1/sessions", H(vehicle_),
+                    Json{{"vehicle_id", "car"}, {"camera", camera}}.dump(), "application/json");
     EXPECT_TRUE(r && r->status == 201);
     return r ? Json::parse(r->body)["session_id"].get<int64_t>() : -1;
   }
@@ -81,8 +86,8 @@ class ServerProcessTest : public ::testing::TestWithParam<std::string> {
   }
 
   int Put(httplib::Client& c, int64_t session, int seq, double y_cam) {
-    auto r = c.Put("/v1/sessions/" + std::to_string(session) + "/keyframes/" + std::to_string(seq), H(vehicle_),
-                   Keyframe(seq, y_cam));
+    auto r = c.Put("/v1/sessions/" + std::to_string(session) + "/keyframes/" + std::to_string(seq),
+                   H(vehicle_), Keyframe(seq, y_cam));
     return r ? r->status : 0;
   }
 
@@ -185,7 +190,8 @@ TEST_P(ServerProcessTest, SigkillDuringUploadsLosesNoAcknowledgedKeyframe) {
     // delay raced the uploads: on an idle machine all of them finished before it).
     std::atomic<int> acknowledged_count{0};
     std::thread killer([&] {
-      while (acknowledged_count.load() < 20) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      while (acknowledged_count.load() < 20)
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
       server->Kill(SIGKILL);
     });
     for (int seq = 0; seq < kMaxUploads; ++seq) {
@@ -194,11 +200,13 @@ TEST_P(ServerProcessTest, SigkillDuringUploadsLosesNoAcknowledgedKeyframe) {
       acknowledged.push_back(seq);
       acknowledged_count.store(static_cast<int>(acknowledged.size()));
     }
-    acknowledged_count.store(kMaxUploads);  // the killer must not wait for ever if uploads failed early
+    acknowledged_count.store(
+        kMaxUploads);  // the killer must not wait for ever if uploads failed early
     killer.join();
   }
   ASSERT_GE(acknowledged.size(), 20u) << "uploads failed before the kill";
-  ASSERT_LT(acknowledged.size(), static_cast<size_t>(kMaxUploads)) << "the kill came after all uploads";
+  ASSERT_LT(acknowledged.size(), static_cast<size_t>(kMaxUploads))
+      << "the kill came after all uploads";
   ServerProcess restarted(config_, log_);
   httplib::Client c("127.0.0.1", restarted.port());
   const Json s = Get(c, "/v1/sessions/" + std::to_string(session), vehicle_);
@@ -217,7 +225,8 @@ TEST_P(ServerProcessTest, SigkillDuringCommitResumesToTheSameResult) {
   // Reference: an uninterrupted commit of the same session in a first database.
   auto tiles_of = [&](httplib::Client& c) {
     std::map<std::string, std::pair<int, int>> out;
-    const Json listing = Get(c, "/v1/changes/tiles?bbox=-30,-10,70,40&page_size=100", Token("reader"));
+    const Json listing =
+        Get(c, "/v1/changes/tiles?bbox=-30,-10,70,40&page_size=100", Token("reader"));
     for (const Json& t : listing["tiles"]) {
       out[t["tile"]] = {t["new_count"].get<int>(), t["removed_count"].get<int>()};
     }

@@ -77,7 +77,8 @@ TEST(SimDataset, SameSeedGivesByteIdenticalFilesWhateverTheThreads) {
   c.seed = 2;
   c.sequences = {"S1_01"};
   GenerateDataset(c, dc, nullptr);
-  EXPECT_NE(Slurp(fs::path(da) / "scenes/original/objects.json"), Slurp(fs::path(dc) / "scenes/original/objects.json"));
+  EXPECT_NE(Slurp(fs::path(da) / "scenes/original/objects.json"),
+            Slurp(fs::path(dc) / "scenes/original/objects.json"));
 }
 
 TEST(SimDataset, EurocLayoutLoadsWithCommonReaders) {
@@ -85,7 +86,8 @@ TEST(SimDataset, EurocLayoutLoadsWithCommonReaders) {
   const std::string dir = TempDir("layout");
   GenerateDataset(c, dir, nullptr);
   const fs::path mav = fs::path(dir) / "sequences/S1_01/mav0";
-  const Trajectory gt = ReadEurocTrajectory((mav / "state_groundtruth_estimate0/data.csv").string());
+  const Trajectory gt =
+      ReadEurocTrajectory((mav / "state_groundtruth_estimate0/data.csv").string());
   EXPECT_EQ(gt.size(), 301u);  // 1.5 s at 200 Hz
   EXPECT_EQ(gt[1].t_ns - gt[0].t_ns, 5'000'000);
   // Image list: header + 31 frames at 20 Hz, each file present.
@@ -112,7 +114,8 @@ TEST(SimDataset, EurocLayoutLoadsWithCommonReaders) {
   EXPECT_GT(depth.CountValid(), 1000u);
   const PointCloud cloud = ReadCloud((fs::path(dir) / "scenes/original/cloud.pcd").string());
   EXPECT_GT(cloud.size(), 20000u);
-  const nlohmann::json info = nlohmann::json::parse(Slurp(fs::path(dir) / "sequences/S1_mirror/info.json"));
+  const nlohmann::json info =
+      nlohmann::json::parse(Slurp(fs::path(dir) / "sequences/S1_mirror/info.json"));
   EXPECT_EQ(info["scene"], "S1");
   EXPECT_EQ(info["variant"], "mirror");
   EXPECT_EQ(info["mirrors"].size(), 2u);
@@ -123,7 +126,11 @@ TEST(SimDataset, ChangesAreDescribedAndClearlySeenFromTheTrajectory) {
   const Scenes scenes = BuildScenes(c);
   const PinholeCamera cam = [&] {
     PinholeCamera k;
-    k.width = 100; k.height = 56; k.fx = k.fy = 50; k.cx = 50; k.cy = 28;
+    k.width = 100;
+    k.height = 56;
+    k.fx = k.fy = 50;
+    k.cx = 50;
+    k.cy = 28;
     return k;
   }();
   for (const ChangedScene* cs : {&scenes.s1, &scenes.s2}) {
@@ -137,7 +144,8 @@ TEST(SimDataset, ChangesAreDescribedAndClearlySeenFromTheTrajectory) {
     for (const Object& o : cs->scene.objects) {
       if (o.id == added.id) continue;
       const Box a = added.Bounds(), b = o.Bounds();
-      const bool overlap = (a.min.array() < b.max.array()).all() && (b.min.array() < a.max.array()).all();
+      const bool overlap =
+          (a.min.array() < b.max.array()).all() && (b.min.array() < a.max.array()).all();
       EXPECT_FALSE(overlap) << "added building overlaps object " << o.id;
     }
     // Seen: in some frame of the _01 flight, >= 3% of the image within 45 m is the building
@@ -153,8 +161,8 @@ TEST(SimDataset, ChangesAreDescribedAndClearlySeenFromTheTrajectory) {
           for (int u = 0; u < cam.width; ++u) {
             const Eigen::Vector3d d = T.linear() * cam.BackProject(u, v, 1.0);
             Hit h;
-            if (caster.Intersect(T.translation().cast<float>(), d.cast<float>(), 0.f, 45.f, &h) && h.object >= 0 &&
-                scene.objects[static_cast<size_t>(h.object)].id == id) {
+            if (caster.Intersect(T.translation().cast<float>(), d.cast<float>(), 0.f, 45.f, &h) &&
+                h.object >= 0 && scene.objects[static_cast<size_t>(h.object)].id == id) {
               ++n;
             }
           }
@@ -163,8 +171,10 @@ TEST(SimDataset, ChangesAreDescribedAndClearlySeenFromTheTrajectory) {
       }
       return best;
     };
-    EXPECT_GT(best_fraction(now, cs->scene, added.id), 0.03) << cs->scene.name << " added building not seen";
-    EXPECT_GT(best_fraction(before, scenes.original, removed.id), 0.03) << cs->scene.name << " removed building not seen";
+    EXPECT_GT(best_fraction(now, cs->scene, added.id), 0.03)
+        << cs->scene.name << " added building not seen";
+    EXPECT_GT(best_fraction(before, scenes.original, removed.id), 0.03)
+        << cs->scene.name << " removed building not seen";
   }
 }
 

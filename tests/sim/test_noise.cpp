@@ -45,10 +45,14 @@ TEST(SimNoise, ImuWhiteNoiseAndBiasWalkMatchPreset) {
       }
     }
     // ~54000 samples each: the sample std is within ~1% of the truth; allow 4%.
-    EXPECT_NEAR(Std(gw), p.gyro_noise_density * std::sqrt(rate), 0.04 * p.gyro_noise_density * std::sqrt(rate));
-    EXPECT_NEAR(Std(aw), p.accel_noise_density * std::sqrt(rate), 0.04 * p.accel_noise_density * std::sqrt(rate));
-    EXPECT_NEAR(Std(gb), p.gyro_random_walk / std::sqrt(rate), 0.04 * p.gyro_random_walk / std::sqrt(rate));
-    EXPECT_NEAR(Std(ab), p.accel_random_walk / std::sqrt(rate), 0.04 * p.accel_random_walk / std::sqrt(rate));
+    EXPECT_NEAR(Std(gw), p.gyro_noise_density * std::sqrt(rate),
+                0.04 * p.gyro_noise_density * std::sqrt(rate));
+    EXPECT_NEAR(Std(aw), p.accel_noise_density * std::sqrt(rate),
+                0.04 * p.accel_noise_density * std::sqrt(rate));
+    EXPECT_NEAR(Std(gb), p.gyro_random_walk / std::sqrt(rate),
+                0.04 * p.gyro_random_walk / std::sqrt(rate));
+    EXPECT_NEAR(Std(ab), p.accel_random_walk / std::sqrt(rate),
+                0.04 * p.accel_random_walk / std::sqrt(rate));
   }
   // The paper's table values.
   EXPECT_DOUBLE_EQ(NoiseFor(NoiseLevel::kSmall).gyro_noise_density, 4.0e-4);

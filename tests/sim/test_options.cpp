@@ -9,11 +9,12 @@ namespace mapdelta::sim {
 namespace {
 
 TEST(SimOptions, PresetThenOverrides) {
-  const CliArgs a = ParseArgs({"--out", "/tmp/x", "--width", "320", "--preset", "paper", "--noise", "big",
-                               "--seed", "9", "--sequences", "S1_dark,S2_02", "--shadows", "false"});
+  const CliArgs a =
+      ParseArgs({"--out", "/tmp/x", "--width", "320", "--preset", "paper", "--noise", "big",
+                 "--seed", "9", "--sequences", "S1_dark,S2_02", "--shadows", "false"});
   EXPECT_EQ(a.out_dir, "/tmp/x");
-  EXPECT_EQ(a.config.width, 320);    // override wins, whatever the order
-  EXPECT_EQ(a.config.height, 450);   // paper default kept
+  EXPECT_EQ(a.config.width, 320);   // override wins, whatever the order
+  EXPECT_EQ(a.config.height, 450);  // paper default kept
   EXPECT_DOUBLE_EQ(a.config.fx, 400.0);
   EXPECT_EQ(a.config.noise, NoiseLevel::kBig);
   EXPECT_EQ(a.config.seed, 9u);
@@ -45,16 +46,18 @@ TEST(SimOptions, ErrorsAreCollectedAndNamed) {
     EXPECT_NE(m.find("missing --out"), std::string::npos) << m;
   }
   EXPECT_THROW(ParseArgs({"--out", "d", "--sequences", "S3_01"}), Error);
-  EXPECT_THROW(ParseArgs({"--out", "d", "--length_m", "1000", "--duration_s", "1"}), Error);  // 1 km/s
+  EXPECT_THROW(ParseArgs({"--out", "d", "--length_m", "1000", "--duration_s", "1"}),
+               Error);  // 1 km/s
   EXPECT_THROW(ParseArgs({"--out", "d", "--preset", "huge"}), Error);
   EXPECT_TRUE(ParseArgs({"--help"}).help);
 }
 
 TEST(SimOptions, HelpListsEveryOption) {
   const std::string help = HelpText();
-  for (const char* name : {"--preset", "--out", "--seed", "--noise", "--sequences", "--width", "--fx", "--baseline",
-                           "--cam_rate_hz", "--imu_rate_hz", "--length_m", "--duration_s", "--height_02",
-                           "--write_depth", "--cloud_leaf", "--threads"}) {
+  for (const char* name :
+       {"--preset", "--out", "--seed", "--noise", "--sequences", "--width", "--fx", "--baseline",
+        "--cam_rate_hz", "--imu_rate_hz", "--length_m", "--duration_s", "--height_02",
+        "--write_depth", "--cloud_leaf", "--threads"}) {
     EXPECT_NE(help.find(name), std::string::npos) << name;
   }
 }

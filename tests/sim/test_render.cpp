@@ -56,7 +56,8 @@ TEST(SimRender, DepthMatchesAnalyticRayHit) {
     for (int u = 0; u < cam.width; ++u) {
       // Analytic: ray d = R * ((u-cx)/fx, (v-cy)/fy, 1) from (0,0,5); the wall is the plane x = 20
       // for |y| <= 10, z in [0, 15]; the ground is z = 0. Depth = ray parameter (z_cam = 1).
-      const Eigen::Vector3d d = T.linear() * Eigen::Vector3d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1);
+      const Eigen::Vector3d d =
+          T.linear() * Eigen::Vector3d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1);
       const double t_wall = 20.0 / d.x();
       const Eigen::Vector3d pw = T.translation() + t_wall * d;
       const double t_ground = d.z() < 0 ? -5.0 / d.z() : INFINITY;
@@ -64,7 +65,8 @@ TEST(SimRender, DepthMatchesAnalyticRayHit) {
       if (std::abs(pw.y()) < 9.99 && pw.z() > 0.01 && pw.z() < 14.99 && t_wall < t_ground) {
         expected = t_wall;
         ++checked_wall;
-      } else if (std::isfinite(t_ground) && (std::abs(pw.y()) > 10.01 || pw.z() < -0.01 || t_ground < t_wall)) {
+      } else if (std::isfinite(t_ground) &&
+                 (std::abs(pw.y()) > 10.01 || pw.z() < -0.01 || t_ground < t_wall)) {
         expected = t_ground;
         ++checked_ground;
       } else {
@@ -87,7 +89,8 @@ TEST(SimRender, EmbreeAgreesWithBruteForceOnACity) {
   Rng rng(3);
   int hits = 0, mismatches = 0;
   for (int i = 0; i < 20000; ++i) {
-    const Eigen::Vector3f o(static_cast<float>(rng.Uniform(-60, 60)), static_cast<float>(rng.Uniform(-60, 60)),
+    const Eigen::Vector3f o(static_cast<float>(rng.Uniform(-60, 60)),
+                            static_cast<float>(rng.Uniform(-60, 60)),
                             static_cast<float>(rng.Uniform(1, 30)));
     bool inside = false;  // rays from inside a building are not a camera's case
     for (const Object& ob : s.objects) {

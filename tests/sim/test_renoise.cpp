@@ -57,8 +57,8 @@ std::map<std::string, std::string> AllFiles(const std::string& root) {
 }
 
 TEST(SimRenoise, CleanPlusRenoiseIsByteIdenticalToTheGeneratorAndSeedsOnlyChangeNoise) {
-  const std::string clean = TempDir("clean"), direct = TempDir("direct"), renoised = TempDir("renoised"),
-                    other = TempDir("other");
+  const std::string clean = TempDir("clean"), direct = TempDir("direct"),
+                    renoised = TempDir("renoised"), other = TempDir("other");
   GenerateDataset(Mini(NoiseLevel::kNone), clean, nullptr);
   GenerateDataset(Mini(NoiseLevel::kSmall), direct, nullptr);
   RenoiseOptions o;
@@ -85,7 +85,8 @@ TEST(SimRenoise, CleanPlusRenoiseIsByteIdenticalToTheGeneratorAndSeedsOnlyChange
   EXPECT_EQ(info["seed"].get<uint64_t>(), 3u);
   EXPECT_EQ(info["noise_seed"].get<uint64_t>(), 4u);
   EXPECT_EQ(info["noise"].get<std::string>(), "small");
-  EXPECT_NE(Slurp(fs::path(other) / seq / "imu0/data.csv"), Slurp(fs::path(renoised) / seq / "imu0/data.csv"));
+  EXPECT_NE(Slurp(fs::path(other) / seq / "imu0/data.csv"),
+            Slurp(fs::path(renoised) / seq / "imu0/data.csv"));
   // GT: same poses (first 11 columns), different biases.
   std::ifstream a(fs::path(other) / seq / "state_groundtruth_estimate0/data.csv"),
       b(fs::path(renoised) / seq / "state_groundtruth_estimate0/data.csv");
@@ -103,8 +104,11 @@ TEST(SimRenoise, CleanPlusRenoiseIsByteIdenticalToTheGeneratorAndSeedsOnlyChange
   size_t n = 0, differ = 0;
   for (const auto& e : fs::directory_iterator(fs::path(clean) / seq / "cam1/data")) {
     const cv::Mat c = cv::imread(e.path().string(), cv::IMREAD_UNCHANGED);
-    const cv::Mat s4 = cv::imread((fs::path(other) / seq / "cam1/data" / e.path().filename()).string(), cv::IMREAD_UNCHANGED);
-    const cv::Mat s3 = cv::imread((fs::path(renoised) / seq / "cam1/data" / e.path().filename()).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat s4 = cv::imread(
+        (fs::path(other) / seq / "cam1/data" / e.path().filename()).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat s3 =
+        cv::imread((fs::path(renoised) / seq / "cam1/data" / e.path().filename()).string(),
+                   cv::IMREAD_UNCHANGED);
     ASSERT_EQ(c.size(), s4.size());
     for (int r = 0; r < c.rows; ++r) {
       for (int col = 0; col < c.cols; ++col) {
@@ -119,7 +123,8 @@ TEST(SimRenoise, CleanPlusRenoiseIsByteIdenticalToTheGeneratorAndSeedsOnlyChange
     }
   }
   ASSERT_GT(n, 50000u);
-  const double mean = sum / static_cast<double>(n), sd = std::sqrt(sum2 / static_cast<double>(n) - mean * mean);
+  const double mean = sum / static_cast<double>(n),
+               sd = std::sqrt(sum2 / static_cast<double>(n) - mean * mean);
   EXPECT_NEAR(mean, 0.0, 0.1);
   // sigma 0.02 of full scale = 5.1 levels, plus 1/12 level^2 from rounding; ~10^5 samples.
   EXPECT_NEAR(sd, std::sqrt(5.1 * 5.1 + 1.0 / 12), 0.1);
@@ -145,8 +150,10 @@ TEST(SimRenoise, RefusesNoisyInputAndMissingFolders) {
   EXPECT_THROW(RenoiseDataset(o, nullptr), Error);
   bool help = false, quiet = false;
   EXPECT_THROW(ParseRenoiseArgs({"--from", "x"}, &help, &quiet), Error);  // --out missing
-  EXPECT_THROW(ParseRenoiseArgs({"--from", "x", "--out", "y", "--noise", "loud"}, &help, &quiet), Error);
-  const RenoiseOptions parsed = ParseRenoiseArgs({"--from", "x", "--out", "y", "--noise", "big", "--seed", "7"}, &help, &quiet);
+  EXPECT_THROW(ParseRenoiseArgs({"--from", "x", "--out", "y", "--noise", "loud"}, &help, &quiet),
+               Error);
+  const RenoiseOptions parsed = ParseRenoiseArgs(
+      {"--from", "x", "--out", "y", "--noise", "big", "--seed", "7"}, &help, &quiet);
   EXPECT_EQ(parsed.noise, NoiseLevel::kBig);
   EXPECT_EQ(parsed.seed, 7u);
 }

@@ -24,9 +24,15 @@ const Eigen::Vector3d kGravity(0, 0, -9.81);
 struct Drive {
   double yaw(double t) const { return 0.15 * t + 0.05 * std::sin(2 * t); }
   double yaw_rate(double t) const { return 0.15 + 0.1 * std::cos(2 * t); }
-  Eigen::Matrix3d R(double t) const { return Eigen::AngleAxisd(yaw(t), Eigen::Vector3d::UnitZ()).toRotationMatrix(); }
-  Eigen::Vector3d p(double t) const { return {4 * t + 0.3 * t * t, 0.5 * std::sin(t), 0.1 * std::sin(3 * t)}; }
-  Eigen::Vector3d v(double t) const { return {4 + 0.6 * t, 0.5 * std::cos(t), 0.3 * std::cos(3 * t)}; }
+  Eigen::Matrix3d R(double t) const {
+    return Eigen::AngleAxisd(yaw(t), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  }
+  Eigen::Vector3d p(double t) const {
+    return {4 * t + 0.3 * t * t, 0.5 * std::sin(t), 0.1 * std::sin(3 * t)};
+  }
+  Eigen::Vector3d v(double t) const {
+    return {4 + 0.6 * t, 0.5 * std::cos(t), 0.3 * std::cos(3 * t)};
+  }
   Eigen::Vector3d a(double t) const { return {0.6, -0.5 * std::sin(t), -0.9 * std::sin(3 * t)}; }
   ImuSample Sample(double t) const {
     ImuSample s;
@@ -87,7 +93,8 @@ std::vector<InitFrame> TrueFrames(const StereoExtrinsics& ext, int count = 10) {
     f.state.v_world = drive.v(t);
     f.pre = ImuPreintegration(Noise(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
     if (k > 0) {
-      for (int i = 0; i <= kImuPerFrame; ++i) f.pre.Add(drive.Sample(t - kFrameDt + i * kFrameDt / kImuPerFrame));
+      for (int i = 0; i <= kImuPerFrame; ++i)
+        f.pre.Add(drive.Sample(t - kFrameDt + i * kFrameDt / kImuPerFrame));
     }
     const SE3 T_w_c0 = f.state.T_world_body * ext.T_body_cam0;
     const SE3 T_w_c1 = f.state.T_world_body * ext.T_body_cam1;

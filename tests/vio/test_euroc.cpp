@@ -65,7 +65,8 @@ fs::path MakeFolder(const std::string& name) {
   const fs::path mav0 = root / "mav0";
   Write(mav0 / "cam0/sensor.yaml", kCam0Yaml);
   Write(mav0 / "cam1/sensor.yaml", kCam0Yaml);
-  Write(mav0 / "cam0/data.csv", "#timestamp [ns],filename\n100,100.png\n200,200.png\n300,300.png\n");
+  Write(mav0 / "cam0/data.csv",
+        "#timestamp [ns],filename\n100,100.png\n200,200.png\n300,300.png\n");
   Write(mav0 / "cam1/data.csv", "#timestamp [ns],filename\n100,100.png\n300,300.png\n");
   Write(mav0 / "imu0/sensor.yaml", kImuYaml);
   Write(mav0 / "imu0/data.csv",

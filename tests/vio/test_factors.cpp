@@ -36,7 +36,8 @@ double JacobianError(const ceres::CostFunction& cost, Blocks blocks) {
   const auto& sizes = cost.parameter_block_sizes();
   std::vector<const double*> ptrs;
   for (auto& b : blocks) ptrs.push_back(b.data());
-  std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(blocks.size());
+  std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(
+      blocks.size());
   std::vector<double*> jptrs;
   for (size_t k = 0; k < blocks.size(); ++k) {
     J[k].resize(nr, sizes[k]);
@@ -238,7 +239,8 @@ TEST(Marginalization, MatchesFullSolveOnLinearChain) {
   {
     ceres::Problem problem(keep);
     for (int k = 0; k < 5; ++k) {
-      problem.AddResidualBlock(costs[k], nullptr, full[pairs[k][0]].data(), full[pairs[k][1]].data());
+      problem.AddResidualBlock(costs[k], nullptr, full[pairs[k][0]].data(),
+                               full[pairs[k][1]].data());
     }
     ceres::Solve(options, &problem, &summary);
   }
@@ -318,7 +320,8 @@ TEST(Marginalization, EliminatesScalarBlocksExactly) {
   std::vector<double> ps(4, 0.0);
   {
     ceres::Problem problem(keep);
-    for (int k = 0; k < 8; ++k) problem.AddResidualBlock(costs[k], nullptr, xs[obs[k][0]].data(), &ps[obs[k][1]]);
+    for (int k = 0; k < 8; ++k)
+      problem.AddResidualBlock(costs[k], nullptr, xs[obs[k][0]].data(), &ps[obs[k][1]]);
     ceres::Solve(options, &problem, &summary);
   }
 
@@ -342,7 +345,8 @@ TEST(Marginalization, EliminatesScalarBlocksExactly) {
   ASSERT_TRUE(marg->Marginalize());
   ceres::Problem reduced(keep);
   for (int k = 0; k < 8; ++k) {
-    if (!touches_dropped(k)) reduced.AddResidualBlock(costs[k], nullptr, x[obs[k][0]].data(), &p[obs[k][1]]);
+    if (!touches_dropped(k))
+      reduced.AddResidualBlock(costs[k], nullptr, x[obs[k][0]].data(), &p[obs[k][1]]);
   }
   auto* prior = new MarginalizationFactor(marg);
   reduced.AddResidualBlock(prior, nullptr, marg->kept_blocks());

@@ -18,7 +18,9 @@ struct Motion {
   Eigen::Vector3d w{0.3, -0.2, 0.5};
   Eigen::Quaterniond R0 = ExpQ(Eigen::Vector3d(0.1, 0.2, -0.3));
   Eigen::Matrix3d R(double t) const { return (R0 * ExpQ(w * t)).toRotationMatrix(); }
-  Eigen::Vector3d p(double t) const { return {3 * std::sin(t), 2 * std::cos(0.5 * t), 0.4 * t * t}; }
+  Eigen::Vector3d p(double t) const {
+    return {3 * std::sin(t), 2 * std::cos(0.5 * t), 0.4 * t * t};
+  }
   Eigen::Vector3d v(double t) const { return {3 * std::cos(t), -std::sin(0.5 * t), 0.8 * t}; }
   Eigen::Vector3d a(double t) const { return {-3 * std::sin(t), -0.5 * std::cos(0.5 * t), 0.8}; }
   ImuSample Sample(double t, const Eigen::Vector3d& bg = Eigen::Vector3d::Zero(),
@@ -49,12 +51,15 @@ TEST(Preintegration, MatchesAnalyticMotion) {
   for (int k = 0; k <= 1000; ++k) pre.Add(m.Sample(k * T / 1000));
   EXPECT_NEAR(pre.dt(), T, 1e-12);
   const Eigen::Matrix3d R0 = m.R(0);
-  const Eigen::Vector3d dp_true = R0.transpose() * (m.p(T) - m.p(0) - m.v(0) * T - 0.5 * kGravity * T * T);
+  const Eigen::Vector3d dp_true =
+      R0.transpose() * (m.p(T) - m.p(0) - m.v(0) * T - 0.5 * kGravity * T * T);
   const Eigen::Vector3d dv_true = R0.transpose() * (m.v(T) - m.v(0) - kGravity * T);
   const Eigen::Matrix3d dR_true = R0.transpose() * m.R(T);
   EXPECT_LT((pre.dR().toRotationMatrix() - dR_true).norm(), 1e-9);
-  EXPECT_LT((pre.dv() - dv_true).norm(), 2e-4) << pre.dv().transpose() << " vs " << dv_true.transpose();
-  EXPECT_LT((pre.dp() - dp_true).norm(), 2e-4) << pre.dp().transpose() << " vs " << dp_true.transpose();
+  EXPECT_LT((pre.dv() - dv_true).norm(), 2e-4)
+      << pre.dv().transpose() << " vs " << dv_true.transpose();
+  EXPECT_LT((pre.dp() - dp_true).norm(), 2e-4)
+      << pre.dp().transpose() << " vs " << dp_true.transpose();
   // Predict() reproduces the end state.
   Eigen::Quaterniond Rj;
   Eigen::Vector3d pj, vj;

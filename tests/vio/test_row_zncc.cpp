@@ -24,7 +24,8 @@ TEST(RowZncc, EqualsMatchTemplateAndFindsTheShift) {
   constexpr int kHalf = 5, kShift = 37;
   const cv::Mat left = RandomTexture(320, 64, 3);
   cv::Mat right(left.size(), CV_8UC1, cv::Scalar(0));
-  left(cv::Rect(kShift, 0, left.cols - kShift, left.rows)).copyTo(right(cv::Rect(0, 0, left.cols - kShift, left.rows)));
+  left(cv::Rect(kShift, 0, left.cols - kShift, left.rows))
+      .copyTo(right(cv::Rect(0, 0, left.cols - kShift, left.rows)));
   // A flat band in the right image: its windows must score 0, as OpenCV's do.
   right(cv::Rect(0, 40, 120, 20)).setTo(cv::Scalar(90));
   std::mt19937 rng(11);
@@ -40,7 +41,8 @@ TEST(RowZncc, EqualsMatchTemplateAndFindsTheShift) {
     RowZncc(left, right, u, v, kHalf, x0 + kHalf, x1 - 1 - kHalf, &ours);
     ASSERT_EQ(ours.size(), static_cast<size_t>(reference.cols));
     for (int k = 0; k < reference.cols; ++k) {
-      ASSERT_NEAR(ours[static_cast<size_t>(k)], reference.at<float>(0, k), 2e-4) << "u " << u << " v " << v << " k " << k;
+      ASSERT_NEAR(ours[static_cast<size_t>(k)], reference.at<float>(0, k), 2e-4)
+          << "u " << u << " v " << v << " k " << k;
     }
     if (v + kHalf < 40) {  // away from the flat band: the best match is the true shift
       const auto best = std::max_element(ours.begin(), ours.end()) - ours.begin();

@@ -36,7 +36,8 @@ EurocCamera ToEuroc(const sim::SimCamera& c) {
 Eigen::Vector2d ProjectDistorted(const EurocCamera& cam, const Eigen::Vector3d& p_body) {
   const Eigen::Vector3d p = cam.T_body_cam.inverse() * p_body;
   const double x = p.x() / p.z(), y = p.y() / p.z();
-  const double k1 = cam.distortion[0], k2 = cam.distortion[1], p1 = cam.distortion[2], p2 = cam.distortion[3];
+  const double k1 = cam.distortion[0], k2 = cam.distortion[1], p1 = cam.distortion[2],
+               p2 = cam.distortion[3];
   const double r2 = x * x + y * y, radial = 1 + k1 * r2 + k2 * r2 * r2;
   const double xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x);
   const double yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y;
@@ -45,7 +46,8 @@ Eigen::Vector2d ProjectDistorted(const EurocCamera& cam, const Eigen::Vector3d& 
 
 Eigen::Vector2d ProjectPinhole(const EurocCamera& cam, const Eigen::Vector3d& p_body) {
   const Eigen::Vector3d p = cam.T_body_cam.inverse() * p_body;
-  return {cam.intrinsics.fx * p.x() / p.z() + cam.intrinsics.cx, cam.intrinsics.fy * p.y() / p.z() + cam.intrinsics.cy};
+  return {cam.intrinsics.fx * p.x() / p.z() + cam.intrinsics.cx,
+          cam.intrinsics.fy * p.y() / p.z() + cam.intrinsics.cy};
 }
 
 struct Fixture {
@@ -57,7 +59,8 @@ struct Fixture {
 // i.e. 30-90 px at 3 m, so bilinear interpolation error stays far below one grey level.
 constexpr double kPlaneZ = 3.0;
 double Texture(double x, double y) {
-  return 128 + 60 * std::sin(2 * M_PI * x / 0.23) * std::cos(2 * M_PI * y / 0.31) + 30 * std::sin(2 * M_PI * (x + y) / 0.6);
+  return 128 + 60 * std::sin(2 * M_PI * x / 0.23) * std::cos(2 * M_PI * y / 0.31) +
+         30 * std::sin(2 * M_PI * (x + y) / 0.6);
 }
 double TextureAlongRay(const SE3& T_body_cam, const Eigen::Vector3d& ray_cam) {
   const Eigen::Vector3d o = T_body_cam.translation(), d = T_body_cam.linear() * ray_cam;
@@ -104,10 +107,14 @@ TEST(StereoRectifier, TablesAgreeWithDistortedProjectionAndRowsMatch) {
         worst_row = std::max(worst_row, std::abs(right.y() - v));
         EXPECT_NEAR(u - right.x(), disparity_per_inv_depth / z, 1e-6);
         const cv::Point2d src0 = r.SourcePixel(0, u, v);
-        worst_left = std::max(worst_left, (Eigen::Vector2d(src0.x, src0.y) - ProjectDistorted(f.cam0, p_body)).norm());
+        worst_left =
+            std::max(worst_left,
+                     (Eigen::Vector2d(src0.x, src0.y) - ProjectDistorted(f.cam0, p_body)).norm());
         if (right.x() < 0 || right.x() > k.width - 1) continue;
         const cv::Point2d src1 = r.SourcePixel(1, right.x(), right.y());
-        worst_right = std::max(worst_right, (Eigen::Vector2d(src1.x, src1.y) - ProjectDistorted(f.cam1, p_body)).norm());
+        worst_right =
+            std::max(worst_right,
+                     (Eigen::Vector2d(src1.x, src1.y) - ProjectDistorted(f.cam1, p_body)).norm());
         ++checked;
       }
     }
@@ -116,8 +123,9 @@ TEST(StereoRectifier, TablesAgreeWithDistortedProjectionAndRowsMatch) {
   EXPECT_LT(worst_row, 1e-6) << "rectified rows of the same point differ";
   EXPECT_LT(worst_left, 0.1) << "cam0 table vs radial-tangential projection (px)";
   EXPECT_LT(worst_right, 0.1) << "cam1 table vs radial-tangential projection (px)";
-  std::printf("rectifier: f %.2f px, baseline %.4f m; worst table error cam0 %.4f px, cam1 %.4f px\n", k.fx,
-              r.baseline_m(), worst_left, worst_right);
+  std::printf(
+      "rectifier: f %.2f px, baseline %.4f m; worst table error cam0 %.4f px, cam1 %.4f px\n", k.fx,
+      r.baseline_m(), worst_left, worst_right);
 }
 
 TEST(StereoRectifier, RectifiedImagesMatchDirectPinholeRendering) {
@@ -140,7 +148,9 @@ TEST(StereoRectifier, RectifiedImagesMatchDirectPinholeRendering) {
     cv::Mat rectified;
     const auto t0 = std::chrono::steady_clock::now();
     for (int rep = 0; rep < 20; ++rep) r.Rectify(i, distorted, &rectified);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / 20;
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() /
+        20;
     const PinholeCamera& k = rects[i]->intrinsics;
     double sum = 0, worst = 0;
     int n = 0;
@@ -155,8 +165,9 @@ TEST(StereoRectifier, RectifiedImagesMatchDirectPinholeRendering) {
     }
     EXPECT_LT(sum / n, 0.6) << "cam" << i << " mean grey error";
     EXPECT_LT(worst, 3.0) << "cam" << i << " worst grey error";
-    std::printf("cam%d rectified vs direct: mean %.3f, worst %.2f grey levels; remap %.2f ms wall\n", i, sum / n,
-                worst, ms);
+    std::printf(
+        "cam%d rectified vs direct: mean %.3f, worst %.2f grey levels; remap %.2f ms wall\n", i,
+        sum / n, worst, ms);
   }
 }
 

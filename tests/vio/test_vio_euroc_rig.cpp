@@ -78,11 +78,14 @@ void CheckStereoMatches(const EurocSequence& seq) {
       const cv::Point2d src = rect.SourcePixel(0, t.left_px.x(), t.left_px.y());
       const int u0 = static_cast<int>(std::floor(src.x)), v0 = static_cast<int>(std::floor(src.y));
       if (u0 < 0 || v0 < 0 || u0 + 1 >= depth.width || v0 + 1 >= depth.height) continue;
-      const float z[4] = {depth.at(u0, v0), depth.at(u0 + 1, v0), depth.at(u0, v0 + 1), depth.at(u0 + 1, v0 + 1)};
-      const float zmin = std::min({z[0], z[1], z[2], z[3]}), zmax = std::max({z[0], z[1], z[2], z[3]});
+      const float z[4] = {depth.at(u0, v0), depth.at(u0 + 1, v0), depth.at(u0, v0 + 1),
+                          depth.at(u0 + 1, v0 + 1)};
+      const float zmin = std::min({z[0], z[1], z[2], z[3]}),
+                  zmax = std::max({z[0], z[1], z[2], z[3]});
       if (zmin <= 0 || zmax > 1.03f * zmin) continue;
       const double a = src.x - u0, b = src.y - v0;
-      const double inv = (1 - a) * (1 - b) / z[0] + a * (1 - b) / z[1] + (1 - a) * b / z[2] + a * b / z[3];
+      const double inv =
+          (1 - a) * (1 - b) / z[0] + a * (1 - b) / z[1] + (1 - a) * b / z[2] + a * b / z[3];
       Eigen::Vector2d xu;
       ASSERT_TRUE(lens.Undistort({(src.x - k.cx) / k.fx, (src.y - k.cy) / k.fy}, &xu));
       const Eigen::Vector3d p_rect = T_rect0_cam0 * (Eigen::Vector3d(xu.x(), xu.y(), 1.0) / inv);
@@ -92,8 +95,11 @@ void CheckStereoMatches(const EurocSequence& seq) {
   ASSERT_GT(errors.size(), 300u);
   std::sort(errors.begin(), errors.end());
   const double median = errors[errors.size() / 2], p90 = errors[errors.size() * 9 / 10];
-  std::printf("euroc rig stereo: %d features, %d matched (%.0f %%), %zu with GT depth: |disparity error| median %.3f px, "
-              "90%% %.3f px\n", features, matched, 100.0 * matched / features, errors.size(), median, p90);
+  std::printf(
+      "euroc rig stereo: %d features, %d matched (%.0f %%), %zu with GT depth: |disparity error| "
+      "median %.3f px, "
+      "90%% %.3f px\n",
+      features, matched, 100.0 * matched / features, errors.size(), median, p90);
   EXPECT_GT(matched, features / 2);
   EXPECT_LT(median, 0.15);
   EXPECT_LT(p90, 0.8);
@@ -120,11 +126,12 @@ TEST(VioEurocRig, SimulatedMh01SensorsSequence) {
   // Initialization: init_frames (10) over at least init_min_span_s (0.9 s) = 19 frames at 20 Hz.
   EXPECT_GE(result.initialized, result.processed - 22);
   const AteResult ate = ComputeAte(seq.groundtruth, result.frames);
-  std::printf("euroc rig: %d frames, %d initialized, %d resets, ATE rmse %.3f m max %.3f m over %zu poses\n",
-              result.processed, result.initialized, result.resets, ate.rmse, ate.max, ate.pairs);
+  std::printf(
+      "euroc rig: %d frames, %d initialized, %d resets, ATE rmse %.3f m max %.3f m over %zu "
+      "poses\n",
+      result.processed, result.initialized, result.resets, ate.rmse, ate.max, ate.pairs);
   // Measured 0.086 m (max 0.13 m) over the 30 m; 0.25 m (0.8 % of the path) leaves room for
   // noise-stream and load-dependent solver changes (the window solve is time-capped). Without
   // rectification (raw distorted pairs) the odometry never initializes on this sequence.
   EXPECT_LT(ate.rmse, 0.25) << "ATE rmse over " << ate.pairs << " poses";
 }
-

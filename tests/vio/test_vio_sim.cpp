@@ -70,7 +70,8 @@ TEST(VioSim, TinyNoiselessSequenceIsAccurate) {
 // features it stayed below 0.1 mm). A pipelining fault (a frame paired with another frame's
 // IMU or features) shows up as decimetres at once.
 TEST(VioSim, PipelinedFrontEndGivesTheSameEstimates) {
-  const EurocSequence seq = ReadEurocSequence(Generate("pipelined", Short(sim::NoiseLevel::kSmall)));
+  const EurocSequence seq =
+      ReadEurocSequence(Generate("pipelined", Short(sim::NoiseLevel::kSmall)));
   vio::SequenceRunOptions serial, pipelined;
   serial.max_frames = pipelined.max_frames = 100;
   pipelined.pipelined = true;

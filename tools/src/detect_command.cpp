@@ -34,8 +34,8 @@ AlignFunction GicpAlignment() {
     params.voxel_m = 0.8;
     const RegistrationResult r = AlignGicp(prior, global, SE3::Identity(), params);
     if (!r.converged) {
-      MD_LOG(kWarn, "GICP alignment did not converge after " << r.iterations
-                                                             << " iterations; keeping the poses as they are");
+      MD_LOG(kWarn, "GICP alignment did not converge after "
+                        << r.iterations << " iterations; keeping the poses as they are");
       return SE3(SE3::Identity());
     }
     MD_LOG(kInfo, "GICP alignment: fitness " << r.fitness_m << " m, " << r.num_inliers << "/"
@@ -123,7 +123,8 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
   const auto start = std::chrono::steady_clock::now();
   MD_LOG(kInfo, "reading prior " << prior_path);
   const PointCloud prior = ReadCloud(prior_path);
-  if (prior.empty()) throw Error(ErrorCode::kInvalidArgument, prior_path + ": prior cloud is empty");
+  if (prior.empty())
+    throw Error(ErrorCode::kInvalidArgument, prior_path + ": prior cloud is empty");
   MD_LOG(kInfo, "reading keyframes from " << keyframe_dir);
   // Poses only here; depth images are streamed from disk by the pipeline.
   const KeyframeFolder keyframes = ReadKeyframeFolderIndex(keyframe_dir);
@@ -173,10 +174,10 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
                             {"removed_points", result.changes.removed_points.size()},
                             {"seconds", seconds}};
   std::ofstream(out_dir + "/summary.json") << std::setw(2) << summary << "\n";
-  out << "global " << result.global.size() << " points, observed prior " << result.observed_prior.size()
-      << ", new " << result.changes.new_points.size() << ", removed "
-      << result.changes.removed_points.size() << " (" << std::fixed << std::setprecision(1) << seconds
-      << " s)\n";
+  out << "global " << result.global.size() << " points, observed prior "
+      << result.observed_prior.size() << ", new " << result.changes.new_points.size()
+      << ", removed " << result.changes.removed_points.size() << " (" << std::fixed
+      << std::setprecision(1) << seconds << " s)\n";
   return 0;
 }
 

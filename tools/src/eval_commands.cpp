@@ -44,7 +44,8 @@ void WriteJson(const std::string& path, const nlohmann::json& json) {
 
 PointCloud ReadNonEmpty(const std::string& path, const char* what) {
   PointCloud cloud = ReadCloud(path);
-  if (cloud.empty()) throw Error(ErrorCode::kInvalidArgument, path + ": " + what + " cloud is empty");
+  if (cloud.empty())
+    throw Error(ErrorCode::kInvalidArgument, path + ": " + what + " cloud is empty");
   return cloud;
 }
 
@@ -145,7 +146,8 @@ int RunEvalChanges(const std::vector<std::string>& args, std::ostream& out) {
   MD_LOG(kInfo, "computing the reference-evaluation variant");
   const ChangeMetrics variant = EvaluateChangesReferenceVariant(input, params);
   out << std::setprecision(6) << std::fixed;
-  for (const auto& [name, m] : {std::pair{"paper", &paper}, std::pair{"reference_variant", &variant}}) {
+  for (const auto& [name, m] :
+       {std::pair{"paper", &paper}, std::pair{"reference_variant", &variant}}) {
     out << name << ": R_new " << m->recall_new << "  P_new " << m->precision_new << "  R_rm "
         << m->recall_removed << "  P_rm " << m->precision_removed << "\n";
   }

@@ -10,7 +10,8 @@ namespace mapdelta::vio {
 namespace {
 
 double MsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 CameraExtrinsics ToCamera(const SE3& T_body_cam) {
@@ -28,7 +29,8 @@ struct StatePrior {
   double sigma_p = 0.01, sigma_yaw = 0.01, sigma_bg = 0.02, sigma_ba = 0.05;
   // Root of the biases' squared normalized shifts from bg0, ba0 (the prior's bias part).
   double BiasShiftSigmas(const NavState& s) const {
-    return std::sqrt(((s.bg - bg0) / sigma_bg).squaredNorm() + ((s.ba - ba0) / sigma_ba).squaredNorm());
+    return std::sqrt(((s.bg - bg0) / sigma_bg).squaredNorm() +
+                     ((s.ba - ba0) / sigma_ba).squaredNorm());
   }
   template <typename T>
   bool operator()(const T* pose, const T* sb, T* r) const {
@@ -49,9 +51,12 @@ struct StatePrior {
 
 SlidingWindowEstimator::SlidingWindowEstimator(const VioConfig& config,
                                                const StereoExtrinsics& extrinsics)
-    : config_(config), ext_(extrinsics), cam0_(ToCamera(extrinsics.T_body_cam0)),
+    : config_(config),
+      ext_(extrinsics),
+      cam0_(ToCamera(extrinsics.T_body_cam0)),
       cam1_(ToCamera(extrinsics.T_body_cam1)),
-      weight_(extrinsics.focal_px / config.pixel_sigma), gravity_(0, 0, -config.gravity),
+      weight_(extrinsics.focal_px / config.pixel_sigma),
+      gravity_(0, 0, -config.gravity),
       loss_(std::make_unique<ceres::HuberLoss>(config.huber_sigmas)) {}
 
 SlidingWindowEstimator::~SlidingWindowEstimator() = default;
@@ -98,8 +103,9 @@ std::optional<NavState> SlidingWindowEstimator::Start(std::vector<InitFrame> fra
   prior.bg0 = Eigen::Map<const Eigen::Vector3d>(first.sb + 3);
   prior.ba0 = Eigen::Map<const Eigen::Vector3d>(first.sb + 6);
   prior_ = std::make_shared<Marginalizer>();
-  prior_->AddResidualBlock(new ceres::AutoDiffCostFunction<StatePrior, 10, 7, 9>(new StatePrior(prior)),
-                           nullptr, {first.pose, first.sb});
+  prior_->AddResidualBlock(
+      new ceres::AutoDiffCostFunction<StatePrior, 10, 7, 9>(new StatePrior(prior)), nullptr,
+      {first.pose, first.sb});
   prior_->Marginalize();
   // The linear alignment's gravity is a few degrees off (frame-to-frame PnP positions are
   // noisy over a short chain); a converged joint solve fixes the tilt before the first
@@ -110,9 +116,10 @@ std::optional<NavState> SlidingWindowEstimator::Start(std::vector<InitFrame> fra
   const NavState newest = StateOf(*window_.back());
   const double shift = prior.BiasShiftSigmas(newest);
   const bool accepted = shift <= config_.init_max_bias_shift_sigmas;
-  MD_LOG(kInfo, "vio init " << (accepted ? "accepted" : "rejected") << ": the first solve moved the biases by "
-                            << shift << " sigmas (bg " << newest.bg.transpose() << " rad/s, ba "
-                            << newest.ba.transpose() << " m/s^2)" << (accepted ? "" : "; initializing again"));
+  MD_LOG(kInfo, "vio init " << (accepted ? "accepted" : "rejected")
+                            << ": the first solve moved the biases by " << shift << " sigmas (bg "
+                            << newest.bg.transpose() << " rad/s, ba " << newest.ba.transpose()
+                            << " m/s^2)" << (accepted ? "" : "; initializing again"));
   if (!accepted) return std::nullopt;
   while (static_cast<int>(window_.size()) > config_.window_keyframes) MarginalizeOldest();
   return newest;
@@ -171,10 +178,12 @@ void SlidingWindowEstimator::Triangulate(Landmark* lm) const {
     const Frame* f = FindFrame(t);
     const SE3 T_w_b = ArrayToPose(f->pose);
     const SE3 T_a_c0 = T_c0a_w * T_w_b * ext_.T_body_cam0;
-    rays.push_back({T_a_c0.translation(), T_a_c0.linear() * Eigen::Vector3d(obs.left.x(), obs.left.y(), 1)});
+    rays.push_back(
+        {T_a_c0.translation(), T_a_c0.linear() * Eigen::Vector3d(obs.left.x(), obs.left.y(), 1)});
     if (obs.has_right) {
       const SE3 T_a_c1 = T_c0a_w * T_w_b * ext_.T_body_cam1;
-      rays.push_back({T_a_c1.translation(), T_a_c1.linear() * Eigen::Vector3d(obs.right.x(), obs.right.y(), 1)});
+      rays.push_back({T_a_c1.translation(),
+                      T_a_c1.linear() * Eigen::Vector3d(obs.right.x(), obs.right.y(), 1)});
     }
   }
   const auto P = TriangulateRays(rays, 2e-3);
@@ -193,7 +202,8 @@ bool SlidingWindowEstimator::IsKeyframe(const FrameFeatures& features) const {
     }
   }
   if (!last_kf) return true;
-  if (1e-9 * static_cast<double>(features.t_ns - last_kf->t_ns) > config_.keyframe_max_gap_s) return true;
+  if (1e-9 * static_cast<double>(features.t_ns - last_kf->t_ns) > config_.keyframe_max_gap_s)
+    return true;
   int shared = 0;
   double parallax = 0;
   for (const auto& f : features.features) {
@@ -269,9 +279,9 @@ EstimatorOutput SlidingWindowEstimator::AddFrame(const FrameFeatures& features,
       out.state.v_world.norm() > config_.max_speed || out.landmarks < config_.min_landmarks ||
       !out.state.T_world_body.matrix().allFinite()) {
     MD_LOG(kWarn, "vio failure at t_ns=" << features.t_ns << ": |ba|=" << out.state.ba.norm()
-                                         << " |bg|=" << out.state.bg.norm() << " speed="
-                                         << out.state.v_world.norm() << " landmarks="
-                                         << out.landmarks);
+                                         << " |bg|=" << out.state.bg.norm()
+                                         << " speed=" << out.state.v_world.norm()
+                                         << " landmarks=" << out.landmarks);
     out.failed = true;
     return out;
   }

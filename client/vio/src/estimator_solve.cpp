@@ -18,7 +18,8 @@ PoseManifold& SharedPoseManifold() {
 // Reprojection error of a factor functor (anchor pose, frame pose, inverse depth) in sigmas:
 // the functors are scaled by weight_.
 template <typename F>
-double ErrorSigmas(const F& f, const double* anchor_pose, const double* pose, const double* inv_depth) {
+double ErrorSigmas(const F& f, const double* anchor_pose, const double* pose,
+                   const double* inv_depth) {
   double r[2];
   f(anchor_pose, pose, inv_depth, r);
   return std::hypot(r[0], r[1]);
@@ -32,8 +33,8 @@ void SlidingWindowEstimator::LandmarkFactors(Landmark* lm, FactorList* out) cons
   for (const auto& [t, obs] : lm->obs) {
     if (t == t_anchor) {
       if (obs.has_right) {
-        out->push_back({StereoFactor::Create(a.left, obs.right, cam0_, cam1_, weight_),
-                        {&lm->inv_depth}});
+        out->push_back(
+            {StereoFactor::Create(a.left, obs.right, cam0_, cam1_, weight_), {&lm->inv_depth}});
       }
       continue;
     }
@@ -112,7 +113,8 @@ void SlidingWindowEstimator::Optimize(int iterations, double max_time_s, bool mo
   solver.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
-  MD_LOG(kDebug, "vio solve: " << summary.BriefReport() << " " << summary.total_time_in_seconds << " s");
+  MD_LOG(kDebug,
+         "vio solve: " << summary.BriefReport() << " " << summary.total_time_in_seconds << " s");
 }
 
 void SlidingWindowEstimator::GateByPrediction(const Frame& frame, const FrameFeatures& features) {
@@ -121,8 +123,9 @@ void SlidingWindowEstimator::GateByPrediction(const Frame& frame, const FrameFea
     Landmark& lm = landmarks_.at(observed.id);
     if (!lm.has_depth || lm.obs.size() < 2 || lm.obs.begin()->first == frame.t_ns) continue;
     const auto& [t_anchor, a] = *lm.obs.begin();
-    const double error = ErrorSigmas(ReprojectionFactor(a.left, observed.left, cam0_, cam0_, weight_),
-                                     FindFrame(t_anchor)->pose, frame.pose, &lm.inv_depth);
+    const double error =
+        ErrorSigmas(ReprojectionFactor(a.left, observed.left, cam0_, cam0_, weight_),
+                    FindFrame(t_anchor)->pose, frame.pose, &lm.inv_depth);
     ++checked;
     if (error <= config_.prediction_gate_sigmas) continue;
     if (lm.obs.size() > 2) {
@@ -149,15 +152,15 @@ void SlidingWindowEstimator::RemoveOutliers() {
     const Frame* anchor = FindFrame(t_anchor);
     for (auto it = std::next(lm.obs.begin()); it != lm.obs.end();) {
       const Frame* f = FindFrame(it->first);
-      if (ErrorSigmas(ReprojectionFactor(a.left, it->second.left, cam0_, cam0_, weight_), anchor->pose,
-                      f->pose, &lm.inv_depth) > config_.outlier_sigmas) {
+      if (ErrorSigmas(ReprojectionFactor(a.left, it->second.left, cam0_, cam0_, weight_),
+                      anchor->pose, f->pose, &lm.inv_depth) > config_.outlier_sigmas) {
         it = lm.obs.erase(it);
         ++removed;
         continue;
       }
       if (it->second.has_right &&
-          ErrorSigmas(ReprojectionFactor(a.left, it->second.right, cam0_, cam1_, weight_), anchor->pose,
-                      f->pose, &lm.inv_depth) > config_.outlier_sigmas) {
+          ErrorSigmas(ReprojectionFactor(a.left, it->second.right, cam0_, cam1_, weight_),
+                      anchor->pose, f->pose, &lm.inv_depth) > config_.outlier_sigmas) {
         it->second.has_right = false;
       }
       ++it;
@@ -237,8 +240,10 @@ std::optional<Matrix6d> SlidingWindowEstimator::RelativeCovariance(const Frame& 
     std::copy(xa, xa + 7, pa);
     std::copy(xb, xb + 7, pb);
     const bool perturb_a = (k < 6) == a_first;
-    if (perturb_a) SharedPoseManifold().Plus(xa, delta, pa);
-    else SharedPoseManifold().Plus(xb, delta, pb);
+    if (perturb_a)
+      SharedPoseManifold().Plus(xa, delta, pa);
+    else
+      SharedPoseManifold().Plus(xb, delta, pb);
     const SE3 dT = T0.inverse() * (ArrayToPose(pa).inverse() * ArrayToPose(pb));
     J.block<3, 1>(0, k) = LogQ(Eigen::Quaterniond(dT.linear())) / h;
     J.block<3, 1>(3, k) = dT.translation() / h;

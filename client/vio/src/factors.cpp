@@ -33,8 +33,8 @@ bool PoseManifold::PlusJacobian(const double* x, double* jacobian) const {
 
 bool PoseManifold::Minus(const double* y, const double* x, double* out) const {
   Eigen::Map<const Eigen::Quaterniond> qy(y + 3), qx(x + 3);
-  Eigen::Map<Eigen::Vector3d>{out} = Eigen::Map<const Eigen::Vector3d>(y) -
-                                     Eigen::Map<const Eigen::Vector3d>(x);
+  Eigen::Map<Eigen::Vector3d>{out} =
+      Eigen::Map<const Eigen::Vector3d>(y) - Eigen::Map<const Eigen::Vector3d>(x);
   Eigen::Map<Eigen::Vector3d>{out + 3} = LogQ(qx.conjugate() * qy);
   return true;
 }
@@ -77,9 +77,18 @@ SE3 ArrayToPose(const double* pose) {
 }
 
 ImuFactor::ImuFactor(const ImuPreintegration& pre, const Eigen::Vector3d& g_world)
-    : dR_(pre.dR()), dv_(pre.dv()), dp_(pre.dp()), bg0_(pre.bg0()), ba0_(pre.ba0()), g_(g_world),
-      J_R_bg_(pre.J_R_bg()), J_v_bg_(pre.J_v_bg()), J_v_ba_(pre.J_v_ba()),
-      J_p_bg_(pre.J_p_bg()), J_p_ba_(pre.J_p_ba()), dt_(pre.dt()) {
+    : dR_(pre.dR()),
+      dv_(pre.dv()),
+      dp_(pre.dp()),
+      bg0_(pre.bg0()),
+      ba0_(pre.ba0()),
+      g_(g_world),
+      J_R_bg_(pre.J_R_bg()),
+      J_v_bg_(pre.J_v_bg()),
+      J_v_ba_(pre.J_v_ba()),
+      J_p_bg_(pre.J_p_bg()),
+      J_p_ba_(pre.J_p_ba()),
+      dt_(pre.dt()) {
   // sqrt_info^T sqrt_info = cov^-1. A tiny diagonal keeps the bias blocks invertible when
   // the random walk is zero (noiseless simulations).
   Matrix15d cov = pre.covariance();
@@ -99,16 +108,19 @@ ceres::CostFunction* ReprojectionFactor::Create(const Eigen::Vector2d& obs_i,
                                                 bool analytic) {
   const ReprojectionFactor f(obs_i, obs_j, cam0, cam_j, weight);
   if (analytic) return new ReprojectionCost(f, obs_i, obs_j, cam0, cam_j, weight);
-  return new ceres::AutoDiffCostFunction<ReprojectionFactor, 2, 7, 7, 1>(
-      new ReprojectionFactor(f));
+  return new ceres::AutoDiffCostFunction<ReprojectionFactor, 2, 7, 7, 1>(new ReprojectionFactor(f));
 }
 
 ReprojectionCost::ReprojectionCost(const ReprojectionFactor&, const Eigen::Vector2d& obs_i,
                                    const Eigen::Vector2d& obs_j, const CameraExtrinsics& cam0,
                                    const CameraExtrinsics& cam_j, double weight)
-    : f_i_(obs_i.x(), obs_i.y(), 1.0), t_bc0_(cam0.t_body_cam), t_bcj_(cam_j.t_body_cam),
+    : f_i_(obs_i.x(), obs_i.y(), 1.0),
+      t_bc0_(cam0.t_body_cam),
+      t_bcj_(cam_j.t_body_cam),
       R_bc0_(cam0.q_body_cam.toRotationMatrix()),
-      R_cjb_(cam_j.q_body_cam.toRotationMatrix().transpose()), obs_j_(obs_j), weight_(weight) {}
+      R_cjb_(cam_j.q_body_cam.toRotationMatrix().transpose()),
+      obs_j_(obs_j),
+      weight_(weight) {}
 
 bool ReprojectionCost::Evaluate(double const* const* parameters, double* residuals,
                                 double** jacobians) const {

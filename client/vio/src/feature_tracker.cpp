@@ -43,9 +43,10 @@ std::vector<TrackedFeature> FeatureTracker::Track(const cv::Mat& left, const cv:
   const cv::Size window(config_.klt_window_px, config_.klt_window_px);
   // Padded copies (tryReuseInputImage = false), never views of the caller's images: the left
   // pyramid is kept as the next frame's previous one.
-  cv::buildOpticalFlowPyramid(left, left_pyramid_, window, config_.klt_levels, true, cv::BORDER_REFLECT_101,
-                              cv::BORDER_CONSTANT, false);
-  cv::buildOpticalFlowPyramid(right, right_pyramid_, window, 1, true, cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT,
+  cv::buildOpticalFlowPyramid(left, left_pyramid_, window, config_.klt_levels, true,
+                              cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
+  cv::buildOpticalFlowPyramid(right, right_pyramid_, window, 1, true, cv::BORDER_REFLECT_101,
+                              cv::BORDER_CONSTANT,
                               false);  // the stereo KLT uses one level
   if (!prev_pyramid_.empty() && !points_.empty()) TrackTemporal(left);
   Detect(left);
@@ -67,15 +68,16 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
   std::vector<cv::Point2f> next, back;
   std::vector<unsigned char> status, status_back;
   std::vector<float> err;
-  cv::calcOpticalFlowPyrLK(prev_pyramid_, left_pyramid_, points_, next, status, err, window, config_.klt_levels);
+  cv::calcOpticalFlowPyrLK(prev_pyramid_, left_pyramid_, points_, next, status, err, window,
+                           config_.klt_levels);
   back = points_;
   cv::calcOpticalFlowPyrLK(left_pyramid_, prev_pyramid_, next, back, status_back, err, window,
                            config_.klt_levels, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
   std::vector<unsigned char> keep(points_.size(), 0);
   for (size_t i = 0; i < points_.size(); ++i) {
     const float fb = std::hypot(back[i].x - points_[i].x, back[i].y - points_[i].y);
-    keep[i] = status[i] && status_back[i] && fb <= config_.forward_backward_px &&
-              Inside(next[i], left);
+    keep[i] =
+        status[i] && status_back[i] && fb <= config_.forward_backward_px && Inside(next[i], left);
     if (!keep[i]) ++stats_.rejected_fb;
   }
   std::vector<cv::Point2f> prev = points_;
@@ -137,7 +139,8 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   for (size_t i = 0; i < n; ++i) {
     const int u = static_cast<int>(std::lround(points_[i].x));
     const int v = static_cast<int>(std::lround(points_[i].y));
-    if (u - kHalf < 0 || v - kHalf < 0 || u + kHalf >= left.cols || v + kHalf >= left.rows) continue;
+    if (u - kHalf < 0 || v - kHalf < 0 || u + kHalf >= left.cols || v + kHalf >= left.rows)
+      continue;
     // Search all disparities for new features, a band around the last one for tracked ones.
     int d_min = 0, d_max = static_cast<int>(config_.max_disparity_px);
     if (last_disparity[i] >= 0) {
@@ -149,7 +152,8 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     if (x1 - x0 < 2 * kHalf + 1 || x1 > right.cols) continue;
     // Right patches centred at x0 + kHalf .. x1 - 1 - kHalf; score k is centre x0 + kHalf + k.
     RowZncc(left, right, u, v, kHalf, x0 + kHalf, x1 - 1 - kHalf, &scores);
-    const int at = static_cast<int>(std::max_element(scores.begin(), scores.end()) - scores.begin());
+    const int at =
+        static_cast<int>(std::max_element(scores.begin(), scores.end()) - scores.begin());
     if (!(scores[static_cast<size_t>(at)] >= config_.min_zncc)) continue;
     // Sub-pixel peak by a parabola through the neighbours.
     double dx = 0;
@@ -171,11 +175,11 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   std::vector<unsigned char> status, status_back;
   std::vector<float> err;
   const cv::Size window(config_.klt_window_px, config_.klt_window_px);
-  cv::calcOpticalFlowPyrLK(left_pyramid_, right_pyramid_, candidates, refined, status, err, window, 1, {},
-                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(left_pyramid_, right_pyramid_, candidates, refined, status, err, window,
+                           1, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
   back = candidates;
-  cv::calcOpticalFlowPyrLK(right_pyramid_, left_pyramid_, refined, back, status_back, err, window, 1, {},
-                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(right_pyramid_, left_pyramid_, refined, back, status_back, err, window,
+                           1, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
   // 3. Row and consistency checks.
   for (size_t k = 0; k < index.size(); ++k) {
     const cv::Point2f& l = candidates[k];

@@ -5,8 +5,7 @@
 
 namespace mapdelta::vio {
 
-std::optional<Eigen::Vector3d> TriangulateRays(const std::vector<Ray>& rays,
-                                               double min_angle_rad) {
+std::optional<Eigen::Vector3d> TriangulateRays(const std::vector<Ray>& rays, double min_angle_rad) {
   if (rays.size() < 2) return std::nullopt;
   // Minimize sum of squared distances to the rays: sum (I - d d^T) (X - o) = 0.
   Eigen::Matrix3d A = Eigen::Matrix3d::Zero();

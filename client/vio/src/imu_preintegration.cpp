@@ -88,7 +88,7 @@ void ImuPreintegration::Step(const ImuSample& a, const ImuSample& b) {
   const Eigen::Matrix3d E_half = ExpQ(0.5 * phi).toRotationMatrix();
   const Eigen::Matrix3d R_half = R * E_half;
   const Eigen::Matrix3d RA = R_half * Skew(acc);
-  const Eigen::Matrix3d RA_theta = RA * E_half.transpose();            // d/d(dtheta)
+  const Eigen::Matrix3d RA_theta = RA * E_half.transpose();                   // d/d(dtheta)
   const Eigen::Matrix3d RA_bg = 0.5 * dt * RA * RightJacobianSO3(0.5 * phi);  // d/d(bg)
 
   // 1. Linearized error-state transition F and noise input G (see header for the order).

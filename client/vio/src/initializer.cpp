@@ -56,7 +56,7 @@ std::optional<std::vector<InitFrame>> Initializer::AddFrame(const FrameFeatures&
   }
   std::vector<InitFrame> out(frames_.begin(), frames_.end());
   if (!Align(&out)) {
-    frames_.pop_front();  // slide: try again with the next frame
+    frames_.pop_front();         // slide: try again with the next frame
     if (anchor_ > 0) --anchor_;  // a dropped anchor hands over to the new oldest frame
     return std::nullopt;
   }
@@ -76,7 +76,8 @@ bool Initializer::RelativeMotion(const FrameFeatures& prev, const FrameFeatures&
   // they attenuate it: with every point up to 200 m the chain under-measured the motion by
   // 8-10% (tiny and paper S*_01), which biased the initial velocity and gravity (|g| 9.58).
   // Use points with disparity >= init_min_disparity_px; fall back to all if too few.
-  const double z_near = ext_.focal_px * T_c0_c1.translation().norm() / config_.init_min_disparity_px;
+  const double z_near =
+      ext_.focal_px * T_c0_c1.translation().norm() / config_.init_min_disparity_px;
   std::vector<cv::Point3f> far_object;
   std::vector<cv::Point2f> far_image;
   // The strongest, longest-tracked corners first (ids grow with detection order, and each
@@ -108,9 +109,9 @@ bool Initializer::RelativeMotion(const FrameFeatures& prev, const FrameFeatures&
   cv::Mat rvec, tvec;
   std::vector<int> inliers;
   const double threshold = 2.0 / ext_.focal_px;  // 2 px in normalized coordinates
-  const bool ok = cv::solvePnPRansac(object, image, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec,
-                                     tvec, false, 100, static_cast<float>(threshold), 0.99,
-                                     inliers, cv::SOLVEPNP_ITERATIVE);
+  const bool ok =
+      cv::solvePnPRansac(object, image, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false,
+                         100, static_cast<float>(threshold), 0.99, inliers, cv::SOLVEPNP_ITERATIVE);
   if (!ok || inliers.size() < min_inliers) return false;
   cv::Mat R_cv;
   cv::Rodrigues(rvec, R_cv);
@@ -196,10 +197,11 @@ bool Initializer::Align(std::vector<InitFrame>* frames_ptr) const {
   }
   MD_LOG(kDebug, "vio init: chain displacement "
                      << (frames.back().state.T_world_body.translation() -
-                         frames.front().state.T_world_body.translation()).norm()
+                         frames.front().state.T_world_body.translation())
+                            .norm()
                      << " m, first speed " << frames.front().state.v_world.norm());
-  MD_LOG(kInfo, "vio initialized at t_ns=" << frames.back().features.t_ns << ": |g|="
-                                           << g.norm() << " bg=" << bg.transpose()
+  MD_LOG(kInfo, "vio initialized at t_ns=" << frames.back().features.t_ns << ": |g|=" << g.norm()
+                                           << " bg=" << bg.transpose()
                                            << " speed=" << frames.back().state.v_world.norm()
                                            << " fit_rms=" << rms);
   return true;

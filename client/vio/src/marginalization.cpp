@@ -178,7 +178,8 @@ bool MarginalizationFactor::Evaluate(double const* const* parameters, double* re
   for (size_t k = 0; k < sizes.size(); ++k) {
     offsets.push_back(o);
     const int t = TangentSizeOf(sizes[k]);
-    dx.segment(o, t) = TangentMinus(parameters[k], info_->linearization_points()[k].data(), sizes[k]);
+    dx.segment(o, t) =
+        TangentMinus(parameters[k], info_->linearization_points()[k].data(), sizes[k]);
     o += t;
   }
   Eigen::Map<Eigen::VectorXd>(residuals, n) = info_->r() + info_->J() * dx;

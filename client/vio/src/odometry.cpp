@@ -37,7 +37,8 @@ void CheckRectified(const EurocCamera& cam0, const EurocCamera& cam1) {
 
 ImuNoiseDensities FlooredNoise(const VioConfig& c, ImuNoiseDensities n) {
   n.gyroscope_noise_density = std::max(n.gyroscope_noise_density, c.min_gyro_noise_density);
-  n.accelerometer_noise_density = std::max(n.accelerometer_noise_density, c.min_accel_noise_density);
+  n.accelerometer_noise_density =
+      std::max(n.accelerometer_noise_density, c.min_accel_noise_density);
   n.gyroscope_random_walk = std::max(n.gyroscope_random_walk, c.min_gyro_random_walk);
   n.accelerometer_random_walk = std::max(n.accelerometer_random_walk, c.min_accel_random_walk);
   return n;
@@ -65,7 +66,7 @@ struct StereoInertialOdometry::Impl {
   Initializer initializer;
   std::unique_ptr<SlidingWindowEstimator> estimator;
   std::deque<ImuSample> imu;
-  std::optional<ImuSample> boundary;  // IMU interpolated at the previous frame time
+  std::optional<ImuSample> boundary;         // IMU interpolated at the previous frame time
   std::optional<int64_t> last_tracked_t_ns;  // front-end side of the frame-order check
   std::vector<KeyframeEstimate> finalized;
   StageTimes total;
@@ -74,10 +75,15 @@ struct StereoInertialOdometry::Impl {
   cv::Mat rectified[2];
 
   Impl(const VioConfig& c, const EurocCamera& c0, const EurocCamera& c1, const EurocImu& i)
-      : config(c), cam0(c0), cam1(c1), noise(FlooredNoise(c, i.noise)), T_body_imu(i.T_body_imu),
+      : config(c),
+        cam0(c0),
+        cam1(c1),
+        noise(FlooredNoise(c, i.noise)),
+        T_body_imu(i.T_body_imu),
         ext{i.T_body_imu.inverse() * c0.T_body_cam, i.T_body_imu.inverse() * c1.T_body_cam,
             c0.intrinsics.fx},
-        tracker(c.tracker), initializer(c, ext) {}
+        tracker(c.tracker),
+        initializer(c, ext) {}
 
   ImuPreintegration PreintegrateTo(int64_t t_ns) {
     ImuPreintegration pre(noise, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
@@ -91,10 +97,14 @@ struct StereoInertialOdometry::Impl {
       }
     }
     ImuSample at_t;
-    if (before && after) at_t = Interpolate(*before, *after, t_ns);
-    else if (before) at_t = {t_ns, before->gyro, before->accel};
-    else if (after) at_t = {t_ns, after->gyro, after->accel};
-    else at_t = boundary ? ImuSample{t_ns, boundary->gyro, boundary->accel} : ImuSample{t_ns, {}, {}};
+    if (before && after)
+      at_t = Interpolate(*before, *after, t_ns);
+    else if (before)
+      at_t = {t_ns, before->gyro, before->accel};
+    else if (after)
+      at_t = {t_ns, after->gyro, after->accel};
+    else
+      at_t = boundary ? ImuSample{t_ns, boundary->gyro, boundary->accel} : ImuSample{t_ns, {}, {}};
     if (boundary) {
       pre.Add(*boundary);
       for (const auto& s : imu) {
@@ -126,7 +136,8 @@ struct StereoInertialOdometry::Impl {
   void Collect() {
     if (!estimator) return;
     for (auto& k : estimator->TakeFinalized()) {
-      finalized.push_back({k.t_ns, k.state.T_world_body * T_body_imu.inverse(), k.relative_covariance});
+      finalized.push_back(
+          {k.t_ns, k.state.T_world_body * T_body_imu.inverse(), k.relative_covariance});
     }
   }
 };
@@ -171,7 +182,8 @@ TrackedFrame StereoInertialOdometry::TrackFrame(int64_t t_ns, const GrayImageVie
   }
   m.last_tracked_t_ns = t_ns;
   cv::Mat l(left.height, left.width, CV_8UC1, const_cast<uint8_t*>(left.data), left.stride_bytes);
-  cv::Mat r(right.height, right.width, CV_8UC1, const_cast<uint8_t*>(right.data), right.stride_bytes);
+  cv::Mat r(right.height, right.width, CV_8UC1, const_cast<uint8_t*>(right.data),
+            right.stride_bytes);
   if (m.rectifier) {
     m.rectifier->Rectify(0, l, &m.rectified[0]);
     m.rectifier->Rectify(1, r, &m.rectified[1]);

@@ -39,9 +39,11 @@ void RowZncc(const cv::Mat& left, const cv::Mat& right, int u, int v, int half, 
         cross += templ[static_cast<size_t>(k)] * static_cast<float>(p);
       }
     }
-    const double i_var = static_cast<double>(sum2) - static_cast<double>(sum) * static_cast<double>(sum) / n;
+    const double i_var =
+        static_cast<double>(sum2) - static_cast<double>(sum) * static_cast<double>(sum) / n;
     if (!(i_var > 1e-6)) continue;  // flat window
-    (*scores)[static_cast<size_t>(x - x_lo)] = static_cast<float>(cross / std::sqrt(t_norm2 * i_var));
+    (*scores)[static_cast<size_t>(x - x_lo)] =
+        static_cast<float>(cross / std::sqrt(t_norm2 * i_var));
   }
 }
 

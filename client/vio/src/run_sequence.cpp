@@ -17,9 +17,7 @@ cv::Mat ReadGray(const std::string& path) {
   return image;
 }
 
-GrayImageView View(const cv::Mat& m) {
-  return {m.cols, m.rows, static_cast<int>(m.step), m.data};
-}
+GrayImageView View(const cv::Mat& m) { return {m.cols, m.rows, static_cast<int>(m.step), m.data}; }
 
 TrackedFrame ReadAndTrack(StereoInertialOdometry* vio, const StereoFrameFiles& frame) {
   const cv::Mat left = ReadGray(frame.left_path);
@@ -68,7 +66,8 @@ SequenceRunResult RunSequence(const EurocSequence& sequence, const VioConfig& co
   for (int i = 0; i < total; ++i) {
     const auto& frame = frames[i];
     // Feed IMU up to the frame time plus one sample after it (for interpolation).
-    while (imu_index < imu.size() && imu[imu_index].t_ns <= frame.t_ns) vio.AddImu(imu[imu_index++]);
+    while (imu_index < imu.size() && imu[imu_index].t_ns <= frame.t_ns)
+      vio.AddImu(imu[imu_index++]);
     if (imu_index < imu.size()) vio.AddImu(imu[imu_index]);
     std::optional<TrackedFrame> f;
     if (options.pipelined) {
@@ -98,7 +97,9 @@ SequenceRunResult RunSequence(const EurocSequence& sequence, const VioConfig& co
     result.keyframe_covariances.push_back(k.relative_covariance);
   }
   result.times = vio.accumulated_times();
-  if (total > 1) result.sequence_duration_s = 1e-9 * static_cast<double>(frames[total - 1].t_ns - frames[0].t_ns);
+  if (total > 1)
+    result.sequence_duration_s =
+        1e-9 * static_cast<double>(frames[total - 1].t_ns - frames[0].t_ns);
   return result;
 }
 

@@ -38,8 +38,8 @@ class CorrespondenceCache {
   // Nearest target index strictly within max_distance of q (source point i at the current
   // pose), or kNone; *distance is set for a match. hint: the source point searched just before
   // in the same thread (its entry seeds the bound), or kNone. Each i from one thread only.
-  uint32_t Find(size_t i, const Point& q, size_t hint, const PointCloud& target,
-                const KdTree& tree, float* distance) {
+  uint32_t Find(size_t i, const Point& q, size_t hint, const PointCloud& target, const KdTree& tree,
+                float* distance) {
     Entry& e = entries_[i];
     float bound = radius_;
     if (e.valid) {

@@ -55,8 +55,8 @@ Eigen::Vector3f KNearestNormal(const PointCloud& points, const KdTree& tree, con
 
 }  // namespace
 
-std::vector<Eigen::Vector3f> NormalsKNearest(const PointCloud& points, const KdTree& tree,
-                                            size_t k, int num_threads) {
+std::vector<Eigen::Vector3f> NormalsKNearest(const PointCloud& points, const KdTree& tree, size_t k,
+                                             int num_threads) {
   std::vector<Eigen::Vector3f> out(points.size());
   ParallelRanges(points.size(), num_threads, 0, [&](size_t begin, size_t end, int&) {
     for (size_t i = begin; i < end; ++i) out[i] = KNearestNormal(points, tree, points[i], k);
@@ -65,7 +65,7 @@ std::vector<Eigen::Vector3f> NormalsKNearest(const PointCloud& points, const KdT
 }
 
 std::vector<Eigen::Vector3f> NormalsVoxelBlock(const PointCloud& points, double cell_m,
-                                              int num_threads) {
+                                               int num_threads) {
   std::vector<Eigen::Vector3f> out(points.size());
   if (points.empty()) return out;
   // 1. Cells of the grid through the coordinate origin (aligned with the voxels of voxel_m,

@@ -23,9 +23,9 @@ namespace mapdelta::detail {
 
 inline constexpr size_t kMinBlockPoints = 6;
 
-std::vector<Eigen::Vector3f> NormalsKNearest(const PointCloud& points, const KdTree& tree,
-                                            size_t k, int num_threads);
+std::vector<Eigen::Vector3f> NormalsKNearest(const PointCloud& points, const KdTree& tree, size_t k,
+                                             int num_threads);
 std::vector<Eigen::Vector3f> NormalsVoxelBlock(const PointCloud& points, double cell_m,
-                                              int num_threads);
+                                               int num_threads);
 
 }  // namespace mapdelta::detail

@@ -75,15 +75,18 @@ struct PassSums {
 class Problem {
  public:
   Problem(const GicpCloud& target, const GicpCloud& source, const GicpParams& params)
-      : target_(target), source_(source), params_(params),
+      : target_(target),
+        source_(source),
+        params_(params),
         tree_(detail::GicpCloudAccess::Tree(target)),
         cache_(source.size(), static_cast<float>(params.max_correspondence_m)),
-        accepted_(source.size(), kNone), candidate_(source.size(), kNone) {}
+        accepted_(source.size(), kNone),
+        candidate_(source.size(), kNone) {}
 
   // What a pass over the source points computes at a pose.
   enum class Work {
-    kLinearize,      // fresh correspondences and the Gauss-Newton system
-    kStepTest,       // only the error of the accepted correspondences
+    kLinearize,  // fresh correspondences and the Gauss-Newton system
+    kStepTest,   // only the error of the accepted correspondences
     kStepTestAndLinearize,
   };
 
@@ -111,8 +114,8 @@ class Problem {
             }
             if (!linearize) continue;
             float distance = 0;
-            const uint32_t j = cache_.Find(i, Ts.cast<float>(), i > begin ? i - 1 : kNone, tp,
-                                           tree_, &distance);
+            const uint32_t j =
+                cache_.Find(i, Ts.cast<float>(), i > begin ? i - 1 : kNone, tp, tree_, &distance);
             candidate_[i] = j;
             if (j == kNone) continue;
             if (j == old_j) {
@@ -124,12 +127,13 @@ class Problem {
           }
         });
     PassSums total;
-    MD_LOG(kDebug, "AlignGicp: pass (" << (test ? "step test" : "") << (test && linearize ? ", " : "")
-                                       << (linearize ? "linearize" : "") << ") "
-                                       << 1e3 * std::chrono::duration<double>(
-                                                    std::chrono::steady_clock::now() - start)
-                                                    .count()
-                                       << " ms, " << cache_.searches() << " searches so far");
+    MD_LOG(
+        kDebug,
+        "AlignGicp: pass ("
+            << (test ? "step test" : "") << (test && linearize ? ", " : "")
+            << (linearize ? "linearize" : "") << ") "
+            << 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+            << " ms, " << cache_.searches() << " searches so far");
     for (const auto& p : parts) {
       total.terms.Add(p.terms);
       total.error_old += p.error_old;
@@ -211,7 +215,7 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
   result.covariance = Matrix6d::Identity() * kUnobservedVariance;
   if (target.size() < 6 || source.size() < 6) {
     MD_LOG(kDebug, "AlignGicp: too few points (target " << target.size() << ", source "
-                                                       << source.size() << ")");
+                                                        << source.size() << ")");
     return result;
   }
 
@@ -239,11 +243,12 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
         break;
       }
       MD_LOG(kDebug, "AlignGicp: iteration " << iteration << " lambda " << lambda << " step "
-                                             << delta.head<3>().norm() << " rad " << delta.tail<3>().norm()
-                                             << " m, error " << lin.error << ", inliers " << lin.inliers);
+                                             << delta.head<3>().norm() << " rad "
+                                             << delta.tail<3>().norm() << " m, error " << lin.error
+                                             << ", inliers " << lin.inliers);
       const SE3 candidate = RetractRight(T, delta);
-      PassResult pass = problem.Pass(candidate, rejected ? Problem::Work::kStepTest
-                                                         : Problem::Work::kStepTestAndLinearize);
+      PassResult pass = problem.Pass(
+          candidate, rejected ? Problem::Work::kStepTest : Problem::Work::kStepTestAndLinearize);
       if (pass.error_old < lin.error) {
         T = candidate;
         lambda = std::max(lambda / 10.0, kMinLambda);
@@ -255,7 +260,8 @@ RegistrationResult AlignGicp(const GicpCloud& target, const GicpCloud& source,
         converged = SmallStep(delta, params) ||
                     RevisitsPose(T, std::vector<SE3>(visited.begin(), visited.end() - 1), params);
         if (converged && !SmallStep(delta, params)) {
-          MD_LOG(kDebug, "AlignGicp: correspondence cycle at iteration " << iteration << ": converged");
+          MD_LOG(kDebug,
+                 "AlignGicp: correspondence cycle at iteration " << iteration << ": converged");
         }
         visited.push_back(T);
         if (visited.size() > kCycleMemory) visited.erase(visited.begin());

@@ -4,12 +4,12 @@
 #include <mutex>
 #include <string>
 
-#include "mapdelta/common/error.hpp"
-#include "mapdelta/common/voxel_grid.hpp"
-#include "mapdelta/common/registration/gicp.hpp"
 #include "covariance_estimation.hpp"
-#include "mapdelta/common/registration/gicp_factor.hpp"
 #include "gicp_cloud_access.hpp"
+#include "mapdelta/common/error.hpp"
+#include "mapdelta/common/registration/gicp.hpp"
+#include "mapdelta/common/registration/gicp_factor.hpp"
+#include "mapdelta/common/voxel_grid.hpp"
 
 namespace mapdelta {
 namespace {
@@ -100,9 +100,7 @@ GicpCloud& GicpCloud::operator=(GicpCloud&&) noexcept = default;
 
 size_t GicpCloud::size() const { return impl_->points.size(); }
 const PointCloud& GicpCloud::points() const { return impl_->points; }
-const std::vector<Eigen::Matrix3f>& GicpCloud::covariances() const {
-  return impl_->Covariances();
-}
+const std::vector<Eigen::Matrix3f>& GicpCloud::covariances() const { return impl_->Covariances(); }
 bool GicpCloud::Nearest(const Point& query, size_t* index, float* distance) const {
   return impl_->Tree().NearestWithin(query, std::numeric_limits<float>::infinity(), index,
                                      distance);

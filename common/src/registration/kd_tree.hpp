@@ -45,8 +45,7 @@ class KdTree {
   bool empty() const { return index_.empty(); }
 
   // Nearest point strictly closer than max_distance: its cloud index and distance.
-  bool NearestWithin(const Point& query, float max_distance, size_t* index,
-                     float* distance) const {
+  bool NearestWithin(const Point& query, float max_distance, size_t* index, float* distance) const {
     if (empty() || !(max_distance > 0.f)) return false;
     Best<1> best(max_distance * max_distance);
     Search(query, &best);
@@ -180,7 +179,8 @@ class KdTree {
       keyed.swap(tmp);
     }
     std::vector<Entry> sorted(n);
-    for (size_t i = 0; i < n; ++i) sorted[i] = {cloud[keyed[i].second], keyed[i].second, keyed[i].first};
+    for (size_t i = 0; i < n; ++i)
+      sorted[i] = {cloud[keyed[i].second], keyed[i].second, keyed[i].first};
     size_ = n;
     return sorted;
   }
@@ -268,8 +268,8 @@ class KdTree {
       const __m128 dx = _mm_sub_ps(_mm_load_ps(&xs_[i]), qx);
       const __m128 dy = _mm_sub_ps(_mm_load_ps(&ys_[i]), qy);
       const __m128 dz = _mm_sub_ps(_mm_load_ps(&zs_[i]), qz);
-      const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)),
-                                   _mm_mul_ps(dz, dz));
+      const __m128 d2 =
+          _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
       int closer = _mm_movemask_ps(_mm_cmplt_ps(d2, _mm_set1_ps(best->Worst())));
       if (closer == 0) continue;
       alignas(16) float d[4];

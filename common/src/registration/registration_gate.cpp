@@ -33,10 +33,10 @@ GateDecision CheckRegistration(const RegistrationResult& result, const SE3& init
     why << "inliers " << result.num_inliers << " < min_inliers " << gate.min_inliers;
     return Reject(decision, why.str());
   }
-  const double fraction = result.num_source_points == 0
-                              ? 0.0
-                              : static_cast<double>(result.num_inliers) /
-                                    static_cast<double>(result.num_source_points);
+  const double fraction =
+      result.num_source_points == 0
+          ? 0.0
+          : static_cast<double>(result.num_inliers) / static_cast<double>(result.num_source_points);
   if (fraction < gate.min_inlier_fraction) {
     why << "inlier fraction " << fraction << " < min_inlier_fraction " << gate.min_inlier_fraction;
     return Reject(decision, why.str());
@@ -49,8 +49,9 @@ GateDecision CheckRegistration(const RegistrationResult& result, const SE3& init
     const Eigen::Vector3d up = result.T_target_source.linear() * gate.source_up->normalized();
     decision.tilt_rad = std::acos(std::clamp(up.z(), -1.0, 1.0));
     if (!(decision.tilt_rad <= gate.max_tilt_rad)) {
-      why << "tilt " << decision.tilt_rad * 180.0 / M_PI << " deg from the odometry's gravity > max_tilt "
-          << gate.max_tilt_rad * 180.0 / M_PI << " deg";
+      why << "tilt " << decision.tilt_rad * 180.0 / M_PI
+          << " deg from the odometry's gravity > max_tilt " << gate.max_tilt_rad * 180.0 / M_PI
+          << " deg";
       return Reject(decision, why.str());
     }
   }

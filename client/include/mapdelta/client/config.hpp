@@ -8,16 +8,16 @@
 namespace mapdelta::client {
 
 struct StereoConfig {
-  int num_disparities = 128;     // at reference_width; scaled with the image width
-  int reference_width = 800;     // width num_disparities refers to (the paper's camera)
+  int num_disparities = 128;  // at reference_width; scaled with the image width
+  int reference_width = 800;  // width num_disparities refers to (the paper's camera)
   int min_disparity = 0;
-  int block_size = 5;            // odd, pixels
-  int uniqueness_ratio = 10;     // percent margin of the best over the second-best cost
-  int disp12_max_diff = 1;       // left-right consistency tolerance, pixels
-  int speckle_window_size = 100; // pixels; 0 disables speckle filtering
-  int speckle_range = 2;         // disparity variation inside a speckle, pixels
+  int block_size = 5;             // odd, pixels
+  int uniqueness_ratio = 10;      // percent margin of the best over the second-best cost
+  int disp12_max_diff = 1;        // left-right consistency tolerance, pixels
+  int speckle_window_size = 100;  // pixels; 0 disables speckle filtering
+  int speckle_range = 2;          // disparity variation inside a speckle, pixels
   int pre_filter_cap = 63;
-  double max_depth_m = 50.0;     // depths beyond this are dropped
+  double max_depth_m = 50.0;  // depths beyond this are dropped
 };
 
 struct TemporalFilterConfig {
@@ -42,10 +42,10 @@ struct KeyframeSelectionConfig {
 };
 
 struct LocalCloudConfig {
-  int keyframes = 5;          // keyframes aggregated into one local cloud
+  int keyframes = 5;  // keyframes aggregated into one local cloud
   double voxel_m = 0.4;
   double max_depth_m = 50.0;
-  int pixel_stride = 2;       // sample every n-th pixel (the voxel grid averages anyway)
+  int pixel_stride = 2;  // sample every n-th pixel (the voxel grid averages anyway)
 };
 
 struct RegistrationConfig {
@@ -54,7 +54,7 @@ struct RegistrationConfig {
   double max_correction_deg = 10.0;  // gate: rotation between guess and result
   double max_correspondence_m = 2.0;
   int max_iterations = 50;
-  double prior_radius_m = 100.0;     // prior fetched around the vehicle
+  double prior_radius_m = 100.0;  // prior fetched around the vehicle
   double prior_voxel_m = 0.4;
   // Multiplies the registration covariance before fusion. GICP's sandwich covariance is
   // calibrated for independent point noise; stereo local clouds carry correlated errors
@@ -79,14 +79,14 @@ struct RegistrationConfig {
 };
 
 struct FusionConfig {
-  double odom_sigma_rot_rad = 0.002;   // per keyframe step, when the VIO gives no covariance
-  double odom_sigma_trans_m = 0.02;    // per keyframe step ...
-  double odom_sigma_trans_per_m = 0.01;// ... plus this fraction of the step length
-  double huber_delta = 2.0;            // robust loss, in whitened (sigma) units
+  double odom_sigma_rot_rad = 0.002;     // per keyframe step, when the VIO gives no covariance
+  double odom_sigma_trans_m = 0.02;      // per keyframe step ...
+  double odom_sigma_trans_per_m = 0.01;  // ... plus this fraction of the step length
+  double huber_delta = 2.0;              // robust loss, in whitened (sigma) units
   int incremental_iterations = 10;
   int final_iterations = 100;
-  int final_lag_keyframes = 30;        // keyframes this far behind the newest are final
-  double init_sigma_rot_rad = 0.1;     // prior on the first pose (start-up guess, refined)
+  int final_lag_keyframes = 30;     // keyframes this far behind the newest are final
+  double init_sigma_rot_rad = 0.1;  // prior on the first pose (start-up guess, refined)
   double init_sigma_trans_m = 2.0;
   // After an odometry reset the new segment's first keyframe is predicted at constant velocity
   // from the last fused poses; the prediction enters as a weak pose prior with these sigmas

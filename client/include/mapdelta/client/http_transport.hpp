@@ -8,9 +8,9 @@
 namespace mapdelta::client {
 
 struct HttpResponse {
-  int status = 0;      // 0: no response (connection refused, timeout, ...)
+  int status = 0;  // 0: no response (connection refused, timeout, ...)
   std::string body;
-  std::string error;   // transport error text when status == 0
+  std::string error;  // transport error text when status == 0
   bool Ok() const { return status >= 200 && status < 300; }
   // Worth retrying later: no response, 5xx, or 429.
   bool Transient() const { return status == 0 || status >= 500 || status == 429; }

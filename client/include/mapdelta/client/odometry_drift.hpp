@@ -11,7 +11,7 @@ namespace mapdelta::client {
 struct DriftParams {
   double yaw_deg_per_m = 0.05;
   double pitch_deg_per_m = 0.0;
-  double scale_error = 0.01;       // relative translation error
+  double scale_error = 0.01;  // relative translation error
   double rot_noise_deg_per_sqrt_m = 0.0;
   double trans_noise_per_sqrt_m = 0.0;
   uint32_t seed = 1;

@@ -65,10 +65,13 @@ class TrajectoryOdometrySource : public OdometrySource {
 // every time so its state advances as without the reset.
 class InjectedResetOdometrySource : public OdometrySource {
  public:
-  InjectedResetOdometrySource(OdometrySource* inner, int64_t reset_t_ns, double gap_s, const SE3& T_new_old);
+  InjectedResetOdometrySource(OdometrySource* inner, int64_t reset_t_ns, double gap_s,
+                              const SE3& T_new_old);
   std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* images) override;
   bool NeedsImages() const override { return inner_->NeedsImages(); }
-  void PrepareFrame(int64_t t_ns, const StereoImages& images) override { inner_->PrepareFrame(t_ns, images); }
+  void PrepareFrame(int64_t t_ns, const StereoImages& images) override {
+    inner_->PrepareFrame(t_ns, images);
+  }
   // T_new_old may tilt the new frame: aligned only if it keeps z.
   bool GravityAligned() const override;
 

@@ -21,13 +21,13 @@ namespace mapdelta::client {
 
 struct PipelineInputs {
   std::string sequence_dir;
-  OdometrySource* odometry = nullptr;    // required
-  PriorSource* prior = nullptr;          // null: no registration, fused = odometry
-  Uploader* uploader = nullptr;          // null: no upload
-  std::string keyframe_dir;              // keyframe folder output; empty: none
-  std::optional<SE3> initial_T_map_body; // guess at the first keyframe; null: ground truth
-  int max_frames = 0;                    // 0: all frames
-  int num_threads = 2;                   // for GICP
+  OdometrySource* odometry = nullptr;     // required
+  PriorSource* prior = nullptr;           // null: no registration, fused = odometry
+  Uploader* uploader = nullptr;           // null: no upload
+  std::string keyframe_dir;               // keyframe folder output; empty: none
+  std::optional<SE3> initial_T_map_body;  // guess at the first keyframe; null: ground truth
+  int max_frames = 0;                     // 0: all frames
+  int num_threads = 2;                    // for GICP
   // Decode frames (and run the odometry's PrepareFrame, the VIO's tracking) on a thread of
   // their own, ahead of the odometry. false: the odometry reads and tracks each frame on the
   // odometry thread (the structure before 2026-12-01; bench_client's baseline).

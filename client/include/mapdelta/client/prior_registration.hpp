@@ -16,11 +16,11 @@ namespace mapdelta::client {
 
 struct RegistrationOutcome {
   bool accepted = false;
-  std::string reason;                    // "accepted" or why the gate rejected it
-  SE3 T_map_body = SE3::Identity();      // the registered pose of the anchor keyframe
+  std::string reason;                // "accepted" or why the gate rejected it
+  SE3 T_map_body = SE3::Identity();  // the registered pose of the anchor keyframe
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
   double fitness_m = 0;
-  double inlier_fraction = 0;            // source points with a prior point within max_correspondence_m
+  double inlier_fraction = 0;  // source points with a prior point within max_correspondence_m
   double correction_m = 0;
   double correction_rad = 0;
   int iterations = 0;
@@ -46,10 +46,11 @@ class PriorRegistrar {
   // result passes the normal fitness gate and a correction limit of max_guess_error_m/_rad.
   static constexpr double kStartupMaxGuessErrorM = 4.0;
   static constexpr double kStartupMaxGuessErrorRad = 0.26;
-  RegistrationOutcome RefineInitialPose(const PointCloud& local_body, const SE3& guess_T_map_body,
-                                        double max_guess_error_m = kStartupMaxGuessErrorM,
-                                        double max_guess_error_rad = kStartupMaxGuessErrorRad,
-                                        const std::optional<Eigen::Vector3d>& odometry_up = std::nullopt);
+  RegistrationOutcome RefineInitialPose(
+      const PointCloud& local_body, const SE3& guess_T_map_body,
+      double max_guess_error_m = kStartupMaxGuessErrorM,
+      double max_guess_error_rad = kStartupMaxGuessErrorRad,
+      const std::optional<Eigen::Vector3d>& odometry_up = std::nullopt);
 
   // Re-anchoring after an odometry reset: RefineInitialPose from each of several guesses
   // (e.g. heading and position hypotheses across the gap). Among the accepted results the one
@@ -59,10 +60,10 @@ class PriorRegistrar {
   // ambiguous if another accepted hypothesis nearly as good (share >= ambiguity_ratio times
   // the best) landed elsewhere (> 1 m or > 5 degrees away): on sim S2_01 a street seen facing
   // either way gave 0.63 (wrong) and 0.54 (right). `reason` reports how many were accepted.
-  RegistrationOutcome RefineAmongGuesses(const PointCloud& local_body, const std::vector<SE3>& guesses,
-                                         double max_guess_error_m, double max_guess_error_rad,
-                                         const std::optional<Eigen::Vector3d>& odometry_up = std::nullopt,
-                                         double ambiguity_ratio = 0.8);
+  RegistrationOutcome RefineAmongGuesses(
+      const PointCloud& local_body, const std::vector<SE3>& guesses, double max_guess_error_m,
+      double max_guess_error_rad, const std::optional<Eigen::Vector3d>& odometry_up = std::nullopt,
+      double ambiguity_ratio = 0.8);
 
  private:
   struct Impl;

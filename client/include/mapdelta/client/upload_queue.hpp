@@ -25,10 +25,10 @@ struct QueuedKeyframe {
 
 struct UploadState {
   std::optional<std::string> session_id;  // the server's id, as JSON text (number or string)
-  bool sealed = false;     // no more keyframes will be enqueued
-  bool committed = false;  // the server accepted the commit
-  int64_t next_seq = 0;    // seq of the next Enqueue
-  int64_t done_seq = 0;    // all seq below this were acknowledged by the server
+  bool sealed = false;                    // no more keyframes will be enqueued
+  bool committed = false;                 // the server accepted the commit
+  int64_t next_seq = 0;                   // seq of the next Enqueue
+  int64_t done_seq = 0;                   // all seq below this were acknowledged by the server
 };
 
 class UploadQueue {

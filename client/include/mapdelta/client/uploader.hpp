@@ -19,9 +19,9 @@ namespace mapdelta::client {
 std::string KeyframeMetaJson(const Keyframe& keyframe);
 
 struct UploadReport {
-  size_t uploaded = 0;  // acknowledged keyframes (including identical retries)
-  size_t conflicts = 0; // 409: the server holds different content for that seq (not retried)
-  size_t retries = 0;   // transient failures retried
+  size_t uploaded = 0;   // acknowledged keyframes (including identical retries)
+  size_t conflicts = 0;  // 409: the server holds different content for that seq (not retried)
+  size_t retries = 0;    // transient failures retried
   bool committed = false;
   std::string session_id;
   std::string fatal;     // non-empty: stopped on a permanent error (auth, bad request) or gave up

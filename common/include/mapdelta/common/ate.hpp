@@ -39,8 +39,8 @@ Similarity Umeyama(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& targe
 struct AteResult {
   size_t pairs = 0;
   double rmse = 0, mean = 0, median = 0, std = 0, min = 0, max = 0, sse = 0;
-  Similarity alignment;         // applied to the estimate's positions (identity for kNone)
-  std::vector<double> errors;   // per pair, metres, in association order
+  Similarity alignment;        // applied to the estimate's positions (identity for kNone)
+  std::vector<double> errors;  // per pair, metres, in association order
 };
 
 // Throws Error(kInvalidArgument) when no pair (or fewer than 3 with alignment) is found.

@@ -22,11 +22,13 @@ struct PinholeCamera {
 };
 
 struct StereoRig {
-  PinholeCamera left;           // cam0; rectified, so cam1 shares intrinsics
-  double baseline_m = 1.0;      // cam1 sits at +baseline along cam0's x axis
+  PinholeCamera left;       // cam0; rectified, so cam1 shares intrinsics
+  double baseline_m = 1.0;  // cam1 sits at +baseline along cam0's x axis
   SE3 T_body_cam0 = SE3::Identity();
 
-  double DepthFromDisparity(double disparity_px) const { return left.fx * baseline_m / disparity_px; }
+  double DepthFromDisparity(double disparity_px) const {
+    return left.fx * baseline_m / disparity_px;
+  }
   double DisparityFromDepth(double depth_m) const { return left.fx * baseline_m / depth_m; }
 };
 

@@ -13,9 +13,9 @@
 namespace mapdelta {
 
 struct ChangeDetectionParams {
-  double th_ch_m = 3.2;          // change threshold (paper; the reference evaluation used 2.4)
-  double cloud_voxel_m = 0.8;    // P_g and P_p are voxel-downsampled to this before comparing
-  ObservedAreaParams observed;   // rho_o, th_d (also the global cloud's depth cut), th_f
+  double th_ch_m = 3.2;         // change threshold (paper; the reference evaluation used 2.4)
+  double cloud_voxel_m = 0.8;   // P_g and P_p are voxel-downsampled to this before comparing
+  ObservedAreaParams observed;  // rho_o, th_d (also the global cloud's depth cut), th_f
   // Not in the paper (issue 21; the defaults are the paper's rule):
   // rays of pixels without depth end before the prior's surfaces (PriorSurfaces of the prior);
   bool free_rays_stop_at_prior = false;
@@ -59,11 +59,11 @@ using AlignFunction = std::function<SE3(const PointCloud& prior, const PointClou
 using ProgressFunction = std::function<void(const std::string& stage, double fraction)>;
 
 struct ChangeDetectionResult {
-  PointCloud global;            // P_g in the prior's frame (after alignment)
+  PointCloud global;  // P_g in the prior's frame (after alignment)
   SE3 T_prior_global = SE3::Identity();
-  ObservedArea observed;        // A_obs built with the aligned keyframe poses
-  PointCloud prior;             // P_p, downsampled to cloud_voxel_m
-  PointCloud observed_prior;    // P_p^obs
+  ObservedArea observed;      // A_obs built with the aligned keyframe poses
+  PointCloud prior;           // P_p, downsampled to cloud_voxel_m
+  PointCloud observed_prior;  // P_p^obs
   Changes changes;
 };
 
@@ -74,7 +74,8 @@ ChangeDetectionResult DetectChanges(const KeyframeFolder& keyframes, const Point
                                     const ProgressFunction& progress = nullptr);
 // The same, reading each keyframe's depth from the folder only when needed (twice: for the
 // global cloud and for the observed area), so memory does not grow with the session length.
-ChangeDetectionResult DetectChangesInFolder(const std::string& keyframe_dir, const PointCloud& prior,
+ChangeDetectionResult DetectChangesInFolder(const std::string& keyframe_dir,
+                                            const PointCloud& prior,
                                             const ChangeDetectionParams& params,
                                             const AlignFunction& align = nullptr,
                                             const ProgressFunction& progress = nullptr);

@@ -19,10 +19,10 @@ namespace mapdelta {
 struct EurocCamera {
   SE3 T_body_cam = SE3::Identity();  // T_BS
   double rate_hz = 0.0;
-  PinholeCamera intrinsics;          // width/height from `resolution`, fx fy cx cy
-  std::string distortion_model;      // e.g. "radial-tangential", "equidistant"
-  std::vector<double> distortion;    // distortion_coefficients (may be empty)
-  bool HasDistortion() const;        // any non-zero coefficient
+  PinholeCamera intrinsics;        // width/height from `resolution`, fx fy cx cy
+  std::string distortion_model;    // e.g. "radial-tangential", "equidistant"
+  std::vector<double> distortion;  // distortion_coefficients (may be empty)
+  bool HasDistortion() const;      // any non-zero coefficient
 };
 
 // Continuous-time noise densities as EuRoC states them (per sqrt(Hz)); the VIO converts them
@@ -80,7 +80,8 @@ EurocSequence ReadEurocSequence(const std::string& dir);
 EurocCamera ReadEurocCameraYaml(const std::string& path);
 EurocImu ReadEurocImuYaml(const std::string& path);
 // data.csv "#timestamp [ns],filename"; paths are joined to `data_dir`.
-std::vector<EurocImage> ReadEurocImageList(const std::string& csv_path, const std::string& data_dir);
+std::vector<EurocImage> ReadEurocImageList(const std::string& csv_path,
+                                           const std::string& data_dir);
 // data.csv "#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z".
 std::vector<ImuSample> ReadEurocImuCsv(const std::string& csv_path);
 // A rectified stereo rig from cam0/cam1 (baseline = |t of T_cam0_cam1|); throws

@@ -1,9 +1,9 @@
 #pragma once
 // The keyframe folder: what a vehicle produces and the server or mapdelta-detect consumes.
-//   DIR/camera.yaml      intrinsics of the depth images (width, height, fx, fy, cx, cy, depth_scale)
-//   DIR/poses.txt        TUM lines, one per keyframe: T_map_cam (camera pose in the map frame)
-//   DIR/covariances.txt  optional: "t_ns c00 c01 ... c55" (6x6 row-major, order [rx ry rz tx ty tz])
-//   DIR/depth/<t_ns>.png 16-bit depth, depth_scale units per metre, 0 = none
+//   DIR/camera.yaml      intrinsics of the depth images (width, height, fx, fy, cx, cy,
+//   depth_scale) DIR/poses.txt        TUM lines, one per keyframe: T_map_cam (camera pose in the
+//   map frame) DIR/covariances.txt  optional: "t_ns c00 c01 ... c55" (6x6 row-major, order [rx ry
+//   rz tx ty tz]) DIR/depth/<t_ns>.png 16-bit depth, depth_scale units per metre, 0 = none
 #include <Eigen/Core>
 #include <optional>
 #include <string>

@@ -20,11 +20,11 @@ void Write(Level level, const std::string& message);
 }  // namespace mapdelta::log
 
 // Usage: MD_LOG(kInfo, "loaded " << n << " points from " << path);
-#define MD_LOG(level, expr)                                                   \
-  do {                                                                        \
-    if (::mapdelta::log::Level::level >= ::mapdelta::log::GetLevel()) {       \
-      std::ostringstream md_log_stream_;                                      \
-      md_log_stream_ << expr;                                                 \
+#define MD_LOG(level, expr)                                                        \
+  do {                                                                             \
+    if (::mapdelta::log::Level::level >= ::mapdelta::log::GetLevel()) {            \
+      std::ostringstream md_log_stream_;                                           \
+      md_log_stream_ << expr;                                                      \
       ::mapdelta::log::Write(::mapdelta::log::Level::level, md_log_stream_.str()); \
-    }                                                                         \
+    }                                                                              \
   } while (false)

@@ -31,10 +31,10 @@ struct MetricsInput {
 // Counts are point numbers after downsampling to rho_p. A ratio whose denominator is zero is NaN.
 struct ChangeMetrics {
   double recall_new = 0, precision_new = 0, recall_removed = 0, precision_removed = 0;
-  size_t gt_new = 0, gt_removed = 0;                  // N(P_p,new), N(P_p,rm)
+  size_t gt_new = 0, gt_removed = 0;                    // N(P_p,new), N(P_p,rm)
   size_t gt_new_observed = 0, gt_removed_observed = 0;  // N(P_p,new^obs), N(P_p,rm^obs)
   size_t gt_new_observed_tp = 0, gt_removed_observed_tp = 0;
-  size_t detected_new = 0, detected_removed = 0;      // N(P_new), N(P_rm) (after any filter)
+  size_t detected_new = 0, detected_removed = 0;  // N(P_new), N(P_rm) (after any filter)
   size_t detected_new_tp = 0, detected_removed_tp = 0;
 };
 

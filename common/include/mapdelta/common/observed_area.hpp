@@ -13,9 +13,9 @@
 namespace mapdelta {
 
 struct ObservedAreaParams {
-  double resolution_m = 0.8;       // rho_o: octree voxel edge
-  double max_depth_m = 50.0;       // th_d: depths at or beyond this are not used as hits
-  double free_ray_m = 20.0;        // th_f: depth of the free-space ray cast for pixels without depth
+  double resolution_m = 0.8;  // rho_o: octree voxel edge
+  double max_depth_m = 50.0;  // th_d: depths at or beyond this are not used as hits
+  double free_ray_m = 20.0;   // th_f: depth of the free-space ray cast for pixels without depth
   double prefilter_voxel_m = 0.8;  // ray end points are voxel-filtered first (big speed-up)
   int pixel_stride = 1;            // use every n-th pixel in u and v
   // Free-ray bound (not in the paper). 0 = the paper's rule: every pixel without depth casts a

@@ -13,7 +13,8 @@ enum class TrajectoryFormat { kAuto, kTum, kEuroc };
 Trajectory ReadTumTrajectory(const std::string& path);
 Trajectory ReadEurocTrajectory(const std::string& path);
 // kAuto: a .csv file or a first data line with commas is EuRoC, otherwise TUM.
-Trajectory ReadTrajectory(const std::string& path, TrajectoryFormat format = TrajectoryFormat::kAuto);
+Trajectory ReadTrajectory(const std::string& path,
+                          TrajectoryFormat format = TrajectoryFormat::kAuto);
 void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory);
 
 }  // namespace mapdelta

@@ -8,25 +8,25 @@
 namespace mapdelta::server {
 
 enum class ApiCode {
-  kUnauthenticated,     // 401 missing, malformed, unknown or revoked token
-  kForbidden,           // 403 valid token, role not allowed
-  kNotFound,            // 404 unknown session, tile, job, version or route
-  kInvalidJson,         // 400 body is not JSON
-  kInvalidArgument,     // 400 a field is missing, of the wrong type or out of range
-  kInvalidImage,        // 400 depth is not a decodable 16-bit PNG
-  kImageSizeMismatch,   // 422 depth size differs from the session camera
-  kInvalidPose,         // 422 NaN/inf pose or non-unit quaternion, bad covariance
-  kPayloadTooLarge,     // 413
-  kUnsupportedMedia,    // 415 wrong Content-Type
-  kKeyframeConflict,    // 409 same seq uploaded with different content
-  kSeqOutOfOrder,       // 409 seq is not the next one
-  kTimeNotIncreasing,   // 409 t_ns not after the previous keyframe's
-  kSessionNotOpen,      // 409 session already committed / committing
-  kJobNotCancellable,   // 409 job already finished
-  kNoPrior,             // 409 no prior map imported yet
-  kLimitExceeded,       // 422 too many keyframes in a session
-  kShuttingDown,        // 503
-  kInternal,            // 500
+  kUnauthenticated,    // 401 missing, malformed, unknown or revoked token
+  kForbidden,          // 403 valid token, role not allowed
+  kNotFound,           // 404 unknown session, tile, job, version or route
+  kInvalidJson,        // 400 body is not JSON
+  kInvalidArgument,    // 400 a field is missing, of the wrong type or out of range
+  kInvalidImage,       // 400 depth is not a decodable 16-bit PNG
+  kImageSizeMismatch,  // 422 depth size differs from the session camera
+  kInvalidPose,        // 422 NaN/inf pose or non-unit quaternion, bad covariance
+  kPayloadTooLarge,    // 413
+  kUnsupportedMedia,   // 415 wrong Content-Type
+  kKeyframeConflict,   // 409 same seq uploaded with different content
+  kSeqOutOfOrder,      // 409 seq is not the next one
+  kTimeNotIncreasing,  // 409 t_ns not after the previous keyframe's
+  kSessionNotOpen,     // 409 session already committed / committing
+  kJobNotCancellable,  // 409 job already finished
+  kNoPrior,            // 409 no prior map imported yet
+  kLimitExceeded,      // 422 too many keyframes in a session
+  kShuttingDown,       // 503
+  kInternal,           // 500
 };
 
 struct ApiErrorInfo {

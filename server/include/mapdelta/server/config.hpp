@@ -11,10 +11,10 @@ namespace mapdelta::server {
 struct HttpConfig {
   std::string listen_address = "127.0.0.1";
   int port = 8080;
-  int threads = 8;                              // HTTP worker threads
-  int64_t max_body_bytes = 1 << 20;             // JSON bodies
-  int64_t max_keyframe_bytes = 8 << 20;         // one multipart keyframe upload
-  int64_t max_prior_bytes = int64_t{1} << 30;   // a prior map import
+  int threads = 8;                             // HTTP worker threads
+  int64_t max_body_bytes = 1 << 20;            // JSON bodies
+  int64_t max_keyframe_bytes = 8 << 20;        // one multipart keyframe upload
+  int64_t max_prior_bytes = int64_t{1} << 30;  // a prior map import
   int read_timeout_s = 30;
   int write_timeout_s = 60;
   // The web map's static files, served at /: "auto" (next to an installed binary in
@@ -51,8 +51,8 @@ struct IngestConfig {
 
 // Parameters of the commit pipeline (paper section III-C and the reference config).
 struct PipelineConfig {
-  double max_depth_m = 50.0;          // th_d: pixels deeper than this are not used
-  double free_space_depth_m = 15.0;   // th_f: free-space ray length for pixels without depth
+  double max_depth_m = 50.0;         // th_d: pixels deeper than this are not used
+  double free_space_depth_m = 15.0;  // th_f: free-space ray length for pixels without depth
   // Not in the paper: a no-depth pixel's free ray ends at the nearest valid depth within +-N px
   // (ObservedAreaParams::free_ray_bound_window_px; 0 = the paper's rule, always th_f). Sparse
   // stereo depth otherwise lets th_f rays pass through near walls: removed-point precision on
@@ -64,14 +64,14 @@ struct PipelineConfig {
   // "confident" (hit rays end 3 sigma(d) before the hit, rays without depth stop at the prior's
   // surfaces, a removed point's voxel must be seen free by 2 keyframes).
   std::string free_space = "confident";
-  double session_voxel_m = 0.8;       // voxel of the session cloud (0.4 - 0.8)
-  double octree_resolution_m = 0.8;   // rho_o
-  int pixel_stride = 2;               // every n-th pixel in u and v (session cloud and rays)
-  bool gicp_enabled = true;           // paper step 2: align the session cloud to the prior
+  double session_voxel_m = 0.8;      // voxel of the session cloud (0.4 - 0.8)
+  double octree_resolution_m = 0.8;  // rho_o
+  int pixel_stride = 2;              // every n-th pixel in u and v (session cloud and rays)
+  bool gicp_enabled = true;          // paper step 2: align the session cloud to the prior
   double gicp_max_correspondence_m = 2.0;
   double gicp_max_fitness_m = 1.0;
   double gicp_max_correction_m = 4.0;
-  int threads = 2;                    // worker threads inside one job
+  int threads = 2;  // worker threads inside one job
   // Keyframes per unit of commit work: each unit builds its own observed octree, units are
   // merged in keyframe order, so the result does not depend on threads or scheduling. Smaller
   // units keep OctoMap's per-keyframe inner-node update cheap (it walks the whole tree).
@@ -80,8 +80,8 @@ struct PipelineConfig {
 
 // Classification (paper Alg. 1 and 2) on each tile's aggregate; changeable by a reclassify job.
 struct ClassifyConfig {
-  double th_ch_m = 3.2;          // change distance threshold
-  int min_voxel_support = 1;     // aggregated voxels seen by fewer sessions are ignored
+  double th_ch_m = 3.2;       // change distance threshold
+  int min_voxel_support = 1;  // aggregated voxels seen by fewer sessions are ignored
 };
 
 struct ServerConfig {

@@ -31,12 +31,12 @@ struct SimConfig {
   // Scene (metres). The city is a grid of blocks separated by streets.
   double extent_x = 120.0;
   double extent_y = 120.0;
-  double max_height = 30.0;       // tallest building
+  double max_height = 30.0;  // tallest building
   double min_height = 6.0;
-  double block_size = 22.0;       // block edge between streets
-  double street_width = 10.0;     // kerb to kerb incl. sidewalks
-  int small_objects = 20;         // cars, trees, lamps, kiosks
-  double cloud_leaf = 0.2;        // GT cloud voxel size after dense sampling
+  double block_size = 22.0;    // block edge between streets
+  double street_width = 10.0;  // kerb to kerb incl. sidewalks
+  int small_objects = 20;      // cars, trees, lamps, kiosks
+  double cloud_leaf = 0.2;     // GT cloud voxel size after dense sampling
 
   // Sensor rig (sensor_rig.hpp): "ideal" = the camera fields below; "euroc" = EuRoC MH_01's
   // distorted, slightly non-parallel cameras and IMU axes (the camera fields are then unused).
@@ -48,21 +48,22 @@ struct SimConfig {
   double baseline = 1.0;
   double cam_rate_hz = 20.0;
   double imu_rate_hz = 200.0;
-  bool write_depth = true;        // GT depth of cam0 in depth0/
-  bool shadows = true;            // sun shadows (one extra ray per lit pixel)
+  bool write_depth = true;  // GT depth of cam0 in depth0/
+  bool shadows = true;      // sun shadows (one extra ray per lit pixel)
 
   // Trajectories.
-  double length_m = 100.0;        // path length of each sequence
+  double length_m = 100.0;  // path length of each sequence
   double duration_s = 25.0;
-  double height_01 = 4.0;         // flight height of *_01 sequences
-  double height_02 = 15.0;        // flight height of *_02 sequences
-  double spline_spacing = 6.0;    // B-spline control point spacing along the route (m)
+  double height_01 = 4.0;       // flight height of *_01 sequences
+  double height_02 = 15.0;      // flight height of *_02 sequences
+  double spline_spacing = 6.0;  // B-spline control point spacing along the route (m)
 
   std::vector<std::string> sequences = {"S1_01", "S2_01"};
 };
 
 // Presets: tiny, paper, euroc (tiny's city shrunk to 3x3 blocks, EuRoC rig, 200 Hz IMU with
-// EuRoC noise, 12 s / 36 m). Returns the preset's config; throws Error(kInvalidArgument) for an unknown name.
+// EuRoC noise, 12 s / 36 m). Returns the preset's config; throws Error(kInvalidArgument) for an
+// unknown name.
 SimConfig PresetConfig(const std::string& name);
 // Throws Error(kInvalidArgument) naming every bad field at once.
 void Validate(const SimConfig& config);

@@ -34,8 +34,10 @@ void WriteGroundTruthCsv(const std::string& path, const SplineTrajectory& trajec
                          const std::vector<ImuSample>& imu, int64_t t0_ns,
                          const SE3& T_vehicle_body = SE3::Identity());
 // objects.json: objects with boxes and bounds; `changes` relative to the original scene.
-void WriteObjectsJson(const std::string& path, const Scene& scene, const std::vector<Change>& changes);
+void WriteObjectsJson(const std::string& path, const Scene& scene,
+                      const std::vector<Change>& changes);
 // A grey 8-bit PNG.
-void WriteGreyPng(const std::string& path, int width, int height, const std::vector<uint8_t>& pixels);
+void WriteGreyPng(const std::string& path, int width, int height,
+                  const std::vector<uint8_t>& pixels);
 
 }  // namespace mapdelta::sim

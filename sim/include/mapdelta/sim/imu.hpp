@@ -22,17 +22,18 @@ struct ImuSample {
 
 // Sample k is at t = k / rate_hz seconds after t0_ns (rounded to the nanosecond), for every t
 // in [0, duration_s]. Equals AddImuNoise(SimulateCleanImu(...), rate_hz, noise, seed).
-std::vector<ImuSample> SimulateImu(const SplineTrajectory& trajectory, int64_t t0_ns, double rate_hz,
-                                   double duration_s, const NoiseParams& noise, uint64_t seed);
+std::vector<ImuSample> SimulateImu(const SplineTrajectory& trajectory, int64_t t0_ns,
+                                   double rate_hz, double duration_s, const NoiseParams& noise,
+                                   uint64_t seed);
 
 // Noise-free samples (zero biases), each value rounded as imu0/data.csv writes it (10
 // significant digits), so noise added later to a clean file's values matches the generator.
-std::vector<ImuSample> SimulateCleanImu(const SplineTrajectory& trajectory, int64_t t0_ns, double rate_hz,
-                                        double duration_s);
+std::vector<ImuSample> SimulateCleanImu(const SplineTrajectory& trajectory, int64_t t0_ns,
+                                        double rate_hz, double duration_s);
 // White noise and bias random walk on top of clean samples; one random stream from `seed`,
 // drawn in sample order (the same draws whatever the noise level).
-std::vector<ImuSample> AddImuNoise(const std::vector<ImuSample>& clean, double rate_hz, const NoiseParams& noise,
-                                   uint64_t seed);
+std::vector<ImuSample> AddImuNoise(const std::vector<ImuSample>& clean, double rate_hz,
+                                   const NoiseParams& noise, uint64_t seed);
 
 // Time of sample k at rate_hz, in ns after t0 (exact for rates dividing 1e9).
 inline int64_t SampleTimeNs(int64_t t0_ns, int64_t k, double rate_hz) {

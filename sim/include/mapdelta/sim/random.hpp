@@ -13,7 +13,9 @@ inline uint64_t Mix64(uint64_t x) {
   x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
   return x ^ (x >> 31);
 }
-inline uint64_t HashCombine(uint64_t a, uint64_t b) { return Mix64(a ^ (Mix64(b) + 0x632be59bd9b4e019ULL)); }
+inline uint64_t HashCombine(uint64_t a, uint64_t b) {
+  return Mix64(a ^ (Mix64(b) + 0x632be59bd9b4e019ULL));
+}
 // Uniform in [0, 1) from the top 53 bits.
 inline double ToUnit(uint64_t x) { return static_cast<double>(x >> 11) * 0x1.0p-53; }
 

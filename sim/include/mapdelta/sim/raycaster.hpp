@@ -10,10 +10,10 @@
 namespace mapdelta::sim {
 
 struct Hit {
-  float t = 0.f;                          // distance along the (not necessarily unit) direction
+  float t = 0.f;  // distance along the (not necessarily unit) direction
   Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();  // outward face normal
-  int object = -1;                        // index into Scene::objects; -1 = ground
-  int box = -1;                           // index into that object's boxes
+  int object = -1;                                    // index into Scene::objects; -1 = ground
+  int box = -1;                                       // index into that object's boxes
 };
 
 // Far side of the ground plane: it spans the scene plus this margin, so the horizon is ground.

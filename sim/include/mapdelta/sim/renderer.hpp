@@ -36,9 +36,11 @@ void RenderViewInto(const Scene& scene, const RayCaster& caster, const PinholeCa
 // 8-bit grey image: intensity rounded to 8 bits, then AddImageNoise. The noise of pixel i is a
 // hash of (noise_key, i): independent of thread scheduling.
 std::vector<uint8_t> ToGrey8(const RenderedView& view, double sigma, uint64_t noise_key);
-void ToGrey8Into(const RenderedView& view, double sigma, uint64_t noise_key, std::vector<uint8_t>* out);
+void ToGrey8Into(const RenderedView& view, double sigma, uint64_t noise_key,
+                 std::vector<uint8_t>* out);
 // Gaussian noise of `sigma` (fraction of full scale) added to a clean 8-bit image, rounded and
 // clamped to [0, 255]; sigma 0 copies. `mapdelta-sim renoise` applies it to stored clean images.
-void AddImageNoise(const std::vector<uint8_t>& clean, double sigma, uint64_t noise_key, std::vector<uint8_t>* out);
+void AddImageNoise(const std::vector<uint8_t>& clean, double sigma, uint64_t noise_key,
+                   std::vector<uint8_t>* out);
 
 }  // namespace mapdelta::sim

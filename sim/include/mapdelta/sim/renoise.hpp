@@ -15,8 +15,8 @@
 namespace mapdelta::sim {
 
 struct RenoiseOptions {
-  std::string from_dir;                // dataset written with --noise none
-  std::string out_dir;                 // new dataset (scenes and depth are hard links if possible)
+  std::string from_dir;  // dataset written with --noise none
+  std::string out_dir;   // new dataset (scenes and depth are hard links if possible)
   NoiseLevel noise = NoiseLevel::kSmall;
   uint64_t seed = 1;                   // noise seed (info.json noise_seed; the city keeps its seed)
   std::vector<std::string> sequences;  // empty: every folder in FROM/sequences

@@ -20,23 +20,32 @@ struct Box {
 };
 
 // Surface appearance; textures are procedural (texture.hpp).
-enum class Material : uint8_t { kBrick, kPlaster, kConcrete, kCar, kTrunk, kFoliage, kMetal, kMirror };
+enum class Material : uint8_t {
+  kBrick,
+  kPlaster,
+  kConcrete,
+  kCar,
+  kTrunk,
+  kFoliage,
+  kMetal,
+  kMirror
+};
 
 struct Object {
-  int id = 0;                  // stable across original/S1/S2 (added buildings get new ids)
-  std::string kind;            // "building", "car", "tree", "lamp", "kiosk", "mirror"
+  int id = 0;        // stable across original/S1/S2 (added buildings get new ids)
+  std::string kind;  // "building", "car", "tree", "lamp", "kiosk", "mirror"
   Material material = Material::kBrick;
-  float albedo = 0.5f;         // base brightness in [0, 1]
-  uint32_t texture_seed = 0;   // varies bricks, windows, colours per object
-  std::vector<Box> boxes;      // union of boxes; overlapping boxes are allowed
+  float albedo = 0.5f;        // base brightness in [0, 1]
+  uint32_t texture_seed = 0;  // varies bricks, windows, colours per object
+  std::vector<Box> boxes;     // union of boxes; overlapping boxes are allowed
   Box Bounds() const;
 };
 
 struct Lighting {
   Eigen::Vector3d sun_dir = Eigen::Vector3d(0.4, 0.3, 0.85).normalized();  // towards the sun
-  double sun = 0.75;      // direct light scale
-  double ambient = 0.35;  // sky light scale
-  double exposure = 1.0;  // camera gain
+  double sun = 0.75;                                                       // direct light scale
+  double ambient = 0.35;                                                   // sky light scale
+  double exposure = 1.0;                                                   // camera gain
 };
 
 // A street segment between two neighbouring grid intersections.
@@ -50,7 +59,7 @@ struct StreetGrid {
 
 // An empty lot where a changed scene may put a new building.
 struct Lot {
-  Box area;  // z range 0..0
+  Box area;                        // z range 0..0
   int block_i = -1, block_j = -1;  // block between streets i,i+1 and j,j+1 (-1: unknown)
 };
 

@@ -28,13 +28,13 @@ struct RadTan {
 };
 
 struct SimCamera {
-  PinholeCamera K;       // intrinsics of the distorted camera (EuRoC `intrinsics`)
-  RadTan distortion;     // zero for ideal pinhole cameras
+  PinholeCamera K;    // intrinsics of the distorted camera (EuRoC `intrinsics`)
+  RadTan distortion;  // zero for ideal pinhole cameras
   SE3 T_body_cam = SE3::Identity();
 };
 
 struct SensorRig {
-  std::string name;                      // "ideal" or "euroc"
+  std::string name;  // "ideal" or "euroc"
   SimCamera cam[2];
   SE3 T_vehicle_body = SE3::Identity();  // rotation only
 };

@@ -13,7 +13,8 @@
 namespace mapdelta::sim {
 
 // Albedo at world point p on the surface hit; footprint_m > 0.
-float SurfaceAlbedo(const Scene& scene, const Hit& hit, const Eigen::Vector3f& p, float footprint_m);
+float SurfaceAlbedo(const Scene& scene, const Hit& hit, const Eigen::Vector3f& p,
+                    float footprint_m);
 
 // Building blocks, exposed for tests.
 // Smooth value noise in [0, 1] on a unit lattice.

@@ -11,7 +11,7 @@
 namespace mapdelta::sim {
 
 struct MotionState {
-  Eigen::Vector3d p_map = Eigen::Vector3d::Zero();    // body position
+  Eigen::Vector3d p_map = Eigen::Vector3d::Zero();  // body position
   Eigen::Vector3d v_map = Eigen::Vector3d::Zero();
   Eigen::Vector3d a_map = Eigen::Vector3d::Zero();
   double yaw = 0, yaw_rate = 0;
@@ -38,12 +38,13 @@ class SplineTrajectory {
 // A route through the street grid (a polyline of intersections at flight height) that
 // passes along the streets beside `targets` (x/y points, visited in order), extended by a
 // random walk without U-turns to at least `length_m`.
-std::vector<Eigen::Vector2d> PlanRoute(const StreetGrid& streets, const std::vector<Eigen::Vector2d>& targets,
-                                       double length_m, uint64_t seed);
+std::vector<Eigen::Vector2d> PlanRoute(const StreetGrid& streets,
+                                       const std::vector<Eigen::Vector2d>& targets, double length_m,
+                                       uint64_t seed);
 
 // Samples the polyline every `spacing` metres, adds a gentle height wave (amplitude grows with
 // height), and sets knot spacing for `speed` m/s.
-SplineTrajectory MakeTrajectory(const std::vector<Eigen::Vector2d>& route, double height, double spacing,
-                                double speed);
+SplineTrajectory MakeTrajectory(const std::vector<Eigen::Vector2d>& route, double height,
+                                double spacing, double speed);
 
 }  // namespace mapdelta::sim

@@ -28,10 +28,10 @@ namespace mapdelta::vio {
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 struct EstimatorOutput {
-  NavState state;                  // of the newest frame
+  NavState state;  // of the newest frame
   bool keyframe = false;
-  bool failed = false;             // the caller should reset
-  int landmarks = 0;               // landmarks constraining the newest frame
+  bool failed = false;                          // the caller should reset
+  int landmarks = 0;                            // landmarks constraining the newest frame
   std::optional<Matrix6d> relative_covariance;  // keyframes: of T_prevkf_kf (see odometry.hpp)
   double optimize_ms = 0, marginalize_ms = 0, covariance_ms = 0;
 };

@@ -103,9 +103,8 @@ class ReprojectionFactor {
   // analytic: closed-form Jacobians (ReprojectionCost, the window's hot factor: autodiff's
   // 15-wide jets took a third of the CPU); false: autodiff of operator() (the reference).
   static ceres::CostFunction* Create(const Eigen::Vector2d& obs_i, const Eigen::Vector2d& obs_j,
-                                     const CameraExtrinsics& cam0,
-                                     const CameraExtrinsics& cam_j, double weight,
-                                     bool analytic = true);
+                                     const CameraExtrinsics& cam0, const CameraExtrinsics& cam_j,
+                                     double weight, bool analytic = true);
 
   template <typename T>
   bool operator()(const T* pose_i, const T* pose_j, const T* rho, T* out) const {
@@ -159,9 +158,8 @@ class StereoFactor {
   StereoFactor(const Eigen::Vector2d& obs_left, const Eigen::Vector2d& obs_right,
                const CameraExtrinsics& cam0, const CameraExtrinsics& cam1, double weight);
   static ceres::CostFunction* Create(const Eigen::Vector2d& obs_left,
-                                     const Eigen::Vector2d& obs_right,
-                                     const CameraExtrinsics& cam0, const CameraExtrinsics& cam1,
-                                     double weight);
+                                     const Eigen::Vector2d& obs_right, const CameraExtrinsics& cam0,
+                                     const CameraExtrinsics& cam1, double weight);
 
   template <typename T>
   bool operator()(const T* rho, T* out) const {

@@ -17,7 +17,6 @@
 
 namespace mapdelta::vio {
 
-
 struct TrackedFeature {
   uint64_t id = 0;
   Eigen::Vector2d left_px;

@@ -15,7 +15,7 @@ struct TrackerConfig {
   double ransac_px = 1.0;            // fundamental-matrix RANSAC threshold
   double stereo_row_px = 1.5;        // max |v_right - v_left| on a rectified pair
   double max_disparity_px = 256.0;
-  double min_zncc = 0.7;             // coarse stereo match acceptance
+  double min_zncc = 0.7;  // coarse stereo match acceptance
 };
 
 }  // namespace mapdelta::vio

@@ -22,7 +22,7 @@ using Vector15d = Eigen::Matrix<double, 15, 1>;
 // Continuous densities converted explicitly to what one sample period of dt needs:
 // white noise sigma_d = sigma_c / sqrt(dt); bias random walk variance per step sigma_c^2 * dt.
 struct DiscreteImuNoise {
-  double gyro_var = 0, accel_var = 0;        // per-sample measurement variance
+  double gyro_var = 0, accel_var = 0;            // per-sample measurement variance
   double gyro_bias_var = 0, accel_bias_var = 0;  // bias variance added per step
   static DiscreteImuNoise FromDensities(const ImuNoiseDensities& d, double dt_s);
 };
@@ -64,8 +64,8 @@ class ImuPreintegration {
   Eigen::Vector3d CorrectedDv(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba) const;
   Eigen::Vector3d CorrectedDp(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba) const;
   // True when the first-order correction is no longer trustworthy.
-  bool BiasMovedFar(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba,
-                    double gyro_limit = 0.01, double accel_limit = 0.2) const;
+  bool BiasMovedFar(const Eigen::Vector3d& bg, const Eigen::Vector3d& ba, double gyro_limit = 0.01,
+                    double accel_limit = 0.2) const;
 
   // Propagates a state (R, p, v in world) over this interval with gravity g_world.
   void Predict(const Eigen::Vector3d& g_world, const Eigen::Quaterniond& R_i,

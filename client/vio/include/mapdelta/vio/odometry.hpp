@@ -8,9 +8,9 @@
 //
 // Images are 8-bit grey as the cameras deliver them; the cameras' T_BS (sensor.yaml) define
 // T_body_cam. A pair that is not already rectified (radial-tangential distortion, cameras not
-// parallel: real EuRoC) is rectified internally (stereo_rectifier.hpp) before the front end. Poses are of the body frame of the sequence
-// (the IMU's T_BS is honoured). The odometry world's origin and yaw are those of the body
-// when initialization succeeded.
+// parallel: real EuRoC) is rectified internally (stereo_rectifier.hpp) before the front end. Poses
+// are of the body frame of the sequence (the IMU's T_BS is honoured). The odometry world's origin
+// and yaw are those of the body when initialization succeeded.
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
@@ -36,7 +36,7 @@ struct StageTimes {
   double initialization_ms = 0;  // stereo PnP chain + IMU alignment
   double optimization_ms = 0;    // window solve + outlier removal
   double marginalization_ms = 0;
-  double covariance_ms = 0;      // keyframe relative-motion covariance
+  double covariance_ms = 0;  // keyframe relative-motion covariance
   double total_ms = 0;
   StageTimes& operator+=(const StageTimes& o);
 };
@@ -73,8 +73,8 @@ class StereoInertialOdometry {
  public:
   // Throws Error(kUnsupported) for pairs it cannot rectify (distortion models other than
   // radial-tangential, cam1 not beside cam0).
-  StereoInertialOdometry(const VioConfig& config, const EurocCamera& cam0,
-                         const EurocCamera& cam1, const EurocImu& imu);
+  StereoInertialOdometry(const VioConfig& config, const EurocCamera& cam0, const EurocCamera& cam1,
+                         const EurocImu& imu);
   ~StereoInertialOdometry();
   StereoInertialOdometry(const StereoInertialOdometry&) = delete;
   StereoInertialOdometry& operator=(const StereoInertialOdometry&) = delete;

@@ -24,7 +24,7 @@ struct SequenceRunResult {
   Trajectory frames;     // T_world_body of every initialized frame (causal estimates)
   Trajectory keyframes;  // T_world_body of keyframes, final window estimates
   std::vector<std::optional<Eigen::Matrix<double, 6, 6>>> keyframe_covariances;
-  StageTimes times;      // summed over frames
+  StageTimes times;  // summed over frames
   int processed = 0, initialized = 0, resets = 0;
   std::vector<int64_t> reset_t_ns;  // frame times at which a failure reset the estimator
   double sequence_duration_s = 0;

@@ -54,8 +54,8 @@ struct StaticInitConfig {
 struct VioConfig {
   TrackerConfig tracker;
   StaticInitConfig static_init;
-  int window_keyframes = 10;        // keyframes kept in the optimization window
-  int init_frames = 10;             // frames used by the stereo + IMU initialization
+  int window_keyframes = 10;  // keyframes kept in the optimization window
+  int init_frames = 10;       // frames used by the stereo + IMU initialization
   // ... spanning at least this long: gravity comes from velocity differences over the span,
   // so its direction error scales with 1/span (tiny S2_01: 2.6 deg of tilt after 0.45 s,
   // 0.8 deg after 0.95 s).
@@ -65,8 +65,8 @@ struct VioConfig {
   // weaker corners made the chain's positions jitter on the EuRoC-rig test (velocity fit
   // residual 0.53 m/s: initialized after 5 s instead of 1 s).
   int init_max_pnp_points = 200;
-  double pixel_sigma = 1.0;         // feature measurement noise, px
-  double huber_sigmas = 1.5;        // robust loss threshold in units of pixel_sigma
+  double pixel_sigma = 1.0;   // feature measurement noise, px
+  double huber_sigmas = 1.5;  // robust loss threshold in units of pixel_sigma
   // Observations beyond this after a solve are removed. Tight, because features on
   // occlusion edges give skewed (not just wide) stereo errors that bias the scale: 4.0 left a
   // 1.2% scale error on the noiseless tiny sequence, 2.5 leaves 0.4%.
@@ -81,8 +81,8 @@ struct VioConfig {
   // Mean parallax to the last keyframe that makes a keyframe, in normalized image units
   // (0.025 = 10 px at fx = 400).
   double keyframe_parallax = 0.025;
-  int keyframe_min_tracked = 40;    // fewer landmarks shared with the last keyframe: keyframe
-  double keyframe_max_gap_s = 0.5;  // at most this long between keyframes
+  int keyframe_min_tracked = 40;       // fewer landmarks shared with the last keyframe: keyframe
+  double keyframe_max_gap_s = 0.5;     // at most this long between keyframes
   bool right_in_other_frames = false;  // also reproject right-camera observations of
                                        // non-anchor frames (twice the visual factors)
   // Floors on the IMU noise densities: a noiseless simulation still has discretization
@@ -117,17 +117,17 @@ struct VioConfig {
   // full solves 208 s, 0.142 m; 300 motion-only 149 s, 0.217 m).
   bool analytic_reprojection = true;
   bool motion_only_non_keyframes = true;
-  int init_solver_iterations = 30;  // first solve after initialization (converged)
+  int init_solver_iterations = 30;      // first solve after initialization (converged)
   double init_solver_max_time_s = 1.5;  // a one-off stall at (re)initialization
   double solver_max_time_s = 0.08;
   int solver_threads = 1;
   bool compute_keyframe_covariance = true;
-  double gravity = 9.81;            // m/s^2, along -z of the odometry world frame
+  double gravity = 9.81;  // m/s^2, along -z of the odometry world frame
   // Failure detection (reset) thresholds.
-  double max_accel_bias = 2.0;      // m/s^2
-  double max_gyro_bias = 0.5;       // rad/s
-  double max_speed = 60.0;          // m/s
-  int min_landmarks = 10;           // landmarks constraining the newest frame
+  double max_accel_bias = 2.0;  // m/s^2
+  double max_gyro_bias = 0.5;   // rad/s
+  double max_speed = 60.0;      // m/s
+  int min_landmarks = 10;       // landmarks constraining the newest frame
 };
 
 }  // namespace mapdelta::vio

@@ -28,7 +28,7 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 // Which points shape each point's covariance.
 enum class CovarianceNeighborhood {
-  kKNearest,    // the k_neighbors nearest points (k-d tree): exact, ~2 us per point
+  kKNearest,  // the k_neighbors nearest points (k-d tree): exact, ~2 us per point
   // The points in the 3x3x3 voxel cells (edge kVoxelBlockCellFactor * voxel_m) around the
   // point's cell; ~20x cheaper; a block of fewer than 6 points has no usable shape and gets
   // the isotropic unit covariance (as a shapeless k-nearest neighbourhood does). Needs
@@ -44,10 +44,10 @@ struct GicpParams {
   double max_correspondence_m = 2.0;  // source points farther from the target are outliers
   int k_neighbors = 20;               // neighbours for each point's covariance (>= 5; kKNearest)
   CovarianceNeighborhood covariance_neighborhood = CovarianceNeighborhood::kVoxelBlock;
-  double voxel_m = 0.0;               // > 0: voxel-downsample source and target first
-  double rotation_eps_rad = 1e-4;     // converged when a step rotates less than this ...
-  double translation_eps_m = 1e-4;    // ... and translates less than this
-  int num_threads = 2;                // threads for covariances and linearization
+  double voxel_m = 0.0;             // > 0: voxel-downsample source and target first
+  double rotation_eps_rad = 1e-4;   // converged when a step rotates less than this ...
+  double translation_eps_m = 1e-4;  // ... and translates less than this
+  int num_threads = 2;              // threads for covariances and linearization
   // Multiplies the statistically estimated covariance (see RegistrationResult::covariance).
   // 1.0 is calibrated for independent per-point noise; callers whose clouds carry
   // correlated errors (stereo depth bias, odometry drift inside a local cloud) inflate it.
@@ -61,7 +61,7 @@ struct RegistrationResult {
   SE3 T_target_source = SE3::Identity();
   bool converged = false;
   int iterations = 0;
-  size_t num_inliers = 0;      // source points with a target neighbour within max_correspondence_m
+  size_t num_inliers = 0;  // source points with a target neighbour within max_correspondence_m
   size_t num_source_points = 0;  // source points used (after downsampling / non-finite removal)
   // Gauss-Newton system at the solution: H = sum J^T W J, b = sum J^T W r (right perturbation).
   Matrix6d H = Matrix6d::Zero();

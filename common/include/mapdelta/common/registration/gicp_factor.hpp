@@ -27,8 +27,8 @@ inline bool SmallestEigenvector(const Eigen::Matrix3d& A, Eigen::Vector3d* norma
   const Eigen::Matrix3d B = A * (1.0 / scale);
   // det(B - l I) = -l^3 + c2 l^2 - c1 l + c0.
   const double c2 = B.trace();
-  const double c1 = B(0, 0) * B(1, 1) - B(0, 1) * B(0, 1) + B(0, 0) * B(2, 2) -
-                    B(0, 2) * B(0, 2) + B(1, 1) * B(2, 2) - B(1, 2) * B(1, 2);
+  const double c1 = B(0, 0) * B(1, 1) - B(0, 1) * B(0, 1) + B(0, 0) * B(2, 2) - B(0, 2) * B(0, 2) +
+                    B(1, 1) * B(2, 2) - B(1, 2) * B(1, 2);
   const double c0 = B.determinant();
   double l = 0;  // c0 <= 0: the smallest eigenvalue is 0 up to rounding
   for (int iteration = 0; c0 > 0; ++iteration) {
@@ -70,8 +70,7 @@ inline Eigen::Vector3d PlaneNormal(const Eigen::Matrix3d& sample_covariance) {
 // Eigenvalues (1e-3, 1, 1) along (normal, tangent, tangent): V diag(1e-3, 1, 1) V^T =
 // I - (1 - 1e-3) n n^T. A zero normal gives the identity (isotropic: no usable shape).
 inline Eigen::Matrix3d PlaneCovariance(const Eigen::Vector3d& normal) {
-  return Eigen::Matrix3d::Identity() -
-         (1.0 - kPlaneNormalEigenvalue) * normal * normal.transpose();
+  return Eigen::Matrix3d::Identity() - (1.0 - kPlaneNormalEigenvalue) * normal * normal.transpose();
 }
 
 // Replaces the eigenvalues of a sample covariance by (1e-3, 1, 1), smallest first.
@@ -96,8 +95,7 @@ inline Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
 // T (+) delta = (R ExpSO3(w), t + R v): T (+) delta * s ~ R s + t + R (w x s) + R v, hence
 // dr/dw = R [s]x and dr/dv = -R (W is held fixed, as in GICP's Gauss-Newton).
 inline Eigen::Vector3d GicpResidual(const Eigen::Vector3d& target_point,
-                                    const Eigen::Vector3d& source_point,
-                                    const SE3& T_target_source,
+                                    const Eigen::Vector3d& source_point, const SE3& T_target_source,
                                     Eigen::Matrix<double, 3, 6>* jacobian) {
   const Eigen::Matrix3d& R = T_target_source.linear();
   if (jacobian != nullptr) {

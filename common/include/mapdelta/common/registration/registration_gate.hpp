@@ -19,7 +19,7 @@ struct RegistrationGate {
   // minima: a guess 15 m off on the synthetic urban scene converged 15.3 m from the truth with
   // fitness 0.46 m and 1.8 m correction, but only 48% inliers (the true solution: 100%).
   double min_inlier_fraction = 0.6;
-  size_t min_inliers = 50;           // absolute floor, too few points give no constraint
+  size_t min_inliers = 50;  // absolute floor, too few points give no constraint
   // The source frame's up direction (against gravity) as an independent sensor measures it, e.g.
   // a VIO (its world frame is gravity-aligned, and so is the map: both z up). The result must
   // map it within max_tilt_rad of the target's +z. Urban scenes repeat: on paper S1_02 a lost
