@@ -6,6 +6,9 @@
 // commits at once and the commit latency is the time until the last job succeeded. Every
 // process serves the API and runs a job worker. PostgreSQL runs durably (fsync on), like
 // SQLite's synchronous=FULL: a 201 is on disk in both.
+// During ingest it also accounts CPU seconds (from /proc) of the server processes, of
+// PostgreSQL (postmaster and backends) and of the uploaders (this process), per keyframe and as
+// cores kept busy, so that a CPU-bound machine shows as such.
 // Usage: bench_scale_out [--uploaders U] [--keyframes K] [--processes 1,2,4] [--width W]
 //                        [--height H] [--dir DIR]
 #include <signal.h>
@@ -16,6 +19,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -23,6 +28,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bench_scale_out_cpu.hpp"
 #include "box_scene.hpp"
 #include "changed_scene.hpp"
 #include "mapdelta/common/cloud_io.hpp"
@@ -53,7 +59,23 @@ struct Result {
   std::string name;
   double ingest_kf_s = 0, commit_s = 0;
   int errors = 0, keyframes = 0;
+  std::map<int, int> upload_errors;  // HTTP status (0 = no answer) -> count
+  // CPU seconds during ingest, and its wall time.
+  double server_cpu_s = 0, postgres_cpu_s = 0, uploader_cpu_s = 0, ingest_s = 0;
 };
+
+// CPU seconds so far of the server processes, of PostgreSQL (postgres_pid < 0: none) and of
+// the uploaders.
+struct CpuSample {
+  double server = 0, postgres = 0, uploaders = 0;
+};
+CpuSample SampleCpu(const std::vector<pid_t>& servers, pid_t postgres_pid) {
+  CpuSample c;
+  for (pid_t p : servers) c.server += md::bench::ReadProcStat(p).cpu_s;
+  if (postgres_pid > 0) c.postgres = md::bench::CpuWithChildren(postgres_pid);
+  c.uploaders = md::bench::OwnCpu();
+  return c;
+}
 
 md::PinholeCamera Camera(const Options& o) {
   md::PinholeCamera c;
@@ -107,7 +129,8 @@ bool WaitJob(httplib::Client& c, const std::string& admin, int64_t job) {
 
 // The U vehicles upload their K keyframes, vehicle i to port i % N: keyframes/s and errors.
 void Ingest(const Options& o, const std::vector<Keyframe>& drive, const std::vector<int>& ports,
-            const std::string& vehicle, std::vector<int64_t>* sessions, Result* result) {
+            const std::vector<pid_t>& server_pids, pid_t postgres_pid, const std::string& vehicle,
+            std::vector<int64_t>* sessions, Result* result) {
   const md::PinholeCamera k = Camera(o);
   const Json camera{{"width", k.width}, {"height", k.height}, {"fx", k.fx},
                     {"fy", k.fy},       {"cx", k.cx},         {"cy", k.cy}};
@@ -119,7 +142,8 @@ void Ingest(const Options& o, const std::vector<Keyframe>& drive, const std::vec
     if (!r || r->status != 201) throw std::runtime_error("session create failed");
     sessions->push_back(Json::parse(r->body)["session_id"].get<int64_t>());
   }
-  std::atomic<int> errors{0};
+  std::mutex errors_mutex;
+  const CpuSample cpu0 = SampleCpu(server_pids, postgres_pid);
   const auto t0 = Clock::now();
   std::vector<std::thread> threads;
   for (int i = 0; i < o.uploaders; ++i) {
@@ -133,15 +157,23 @@ void Ingest(const Options& o, const std::vector<Keyframe>& drive, const std::vec
         auto r = c.Put(
             "/v1/sessions/" + std::to_string((*sessions)[i]) + "/keyframes/" + std::to_string(seq),
             {{"Authorization", vehicle}}, items);
-        if (!r || r->status != 201) ++errors;
+        if (!r || r->status != 201) {
+          std::lock_guard lock(errors_mutex);
+          ++result->upload_errors[r ? r->status : 0];
+        }
       }
     });
   }
   for (auto& t : threads) t.join();
   const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+  const CpuSample cpu1 = SampleCpu(server_pids, postgres_pid);
+  result->server_cpu_s = cpu1.server - cpu0.server;
+  result->postgres_cpu_s = cpu1.postgres - cpu0.postgres;
+  result->uploader_cpu_s = cpu1.uploaders - cpu0.uploaders;
+  result->ingest_s = s;
   result->keyframes = o.uploaders * o.keyframes;
   result->ingest_kf_s = result->keyframes / s;
-  result->errors += errors;
+  for (const auto& [status, n] : result->upload_errors) result->errors += n;
 }
 
 // Commits every session at once; seconds until the last job succeeded.
@@ -165,7 +197,8 @@ void CommitAll(const std::vector<int>& ports, const std::string& vehicle, const 
 }
 
 Result RunOne(const Options& o, const std::vector<Keyframe>& drive, const std::string& name,
-              const std::string& storage_yaml, int processes, const fs::path& dir) {
+              const std::string& storage_yaml, int processes, pid_t postgres_pid,
+              const fs::path& dir) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string config = (dir / "server.yaml").string();
@@ -175,10 +208,12 @@ Result RunOne(const Options& o, const std::vector<Keyframe>& drive, const std::s
   const std::string admin = Token(config, "admin"), vehicle = Token(config, "vehicle");
   std::vector<std::unique_ptr<md::testing::ServerProcess>> servers;
   std::vector<int> ports;
+  std::vector<pid_t> pids;
   for (int i = 0; i < processes; ++i) {
     servers.push_back(
         std::make_unique<md::testing::ServerProcess>(config, (dir / "server.log").string()));
     ports.push_back(servers.back()->port());
+    pids.push_back(servers.back()->pid());
   }
   {  // the prior: the street before the change
     const std::string pcd = (dir / "prior.pcd").string();
@@ -194,7 +229,7 @@ Result RunOne(const Options& o, const std::vector<Keyframe>& drive, const std::s
   Result result;
   result.name = name;
   std::vector<int64_t> sessions;
-  Ingest(o, drive, ports, vehicle, &sessions, &result);
+  Ingest(o, drive, ports, pids, postgres_pid, vehicle, &sessions, &result);
   CommitAll(ports, vehicle, admin, sessions, &result);
   for (auto& s : servers) s->Kill(SIGTERM);
   return result;
@@ -246,13 +281,13 @@ int main(int argc, char** argv) {
     results.push_back(
         RunOne(o, drive, "sqlite, 1 process",
                "  backend: sqlite\n  database: " + (o.dir / "sqlite" / "db.sqlite").string() + "\n",
-               1, o.dir / "sqlite"));
+               1, -1, o.dir / "sqlite"));
     for (int n : o.processes) {
       const std::string db = "bench_" + std::to_string(n);
       const std::string url = postgres.CreateDatabase(db);
       results.push_back(RunOne(o, drive, "postgres, " + std::to_string(n) + " process(es)",
                                "  backend: postgres\n  postgres_url: \"" + url + "\"\n", n,
-                               o.dir / db));
+                               postgres.pid(), o.dir / db));
     }
     std::printf("\n%d uploaders x %d keyframes (%dx%d), loopback, load average at end %.1f\n",
                 o.uploaders, o.keyframes, o.width, o.height, [] {
@@ -267,6 +302,21 @@ int main(int argc, char** argv) {
                   r.ingest_kf_s / results[0].ingest_kf_s, r.commit_s,
                   results[0].commit_s / r.commit_s, r.errors);
       errors += r.errors;
+    }
+    std::printf("\ningest CPU (ms per keyframe) and cores kept busy (CPU s / wall s), %ld cores\n",
+                sysconf(_SC_NPROCESSORS_ONLN));
+    std::printf("%-26s %8s %9s %10s %14s %12s  %s\n", "configuration", "server", "postgres",
+                "uploaders", "server cores", "all cores", "upload errors by status");
+    for (const Result& r : results) {
+      const double kf = r.keyframes > 0 ? r.keyframes : 1;
+      std::string by_status;
+      for (const auto& [status, n] : r.upload_errors)
+        by_status += std::to_string(status) + ":" + std::to_string(n) + " ";
+      std::printf("%-26s %8.2f %9.2f %10.2f %14.2f %12.2f  %s\n", r.name.c_str(),
+                  1e3 * r.server_cpu_s / kf, 1e3 * r.postgres_cpu_s / kf,
+                  1e3 * r.uploader_cpu_s / kf, r.server_cpu_s / r.ingest_s,
+                  (r.server_cpu_s + r.postgres_cpu_s + r.uploader_cpu_s) / r.ingest_s,
+                  by_status.empty() ? "none" : by_status.c_str());
     }
     fs::remove_all(o.dir);
     return errors == 0 ? 0 : 1;

@@ -9,6 +9,7 @@
 #include "jobs.hpp"
 #include "mapdelta/common/log.hpp"
 #include "tile_classifier.hpp"
+#include "tile_work.hpp"
 
 namespace mapdelta::server {
 
@@ -33,6 +34,8 @@ void JobContext::WaitForEarlierJobs(std::optional<JobType> of_type) {
         storage.jobs().UnfinishedBefore(job.id, NowMs(), of_type);
     if (!earlier) return;
     if (earlier->claimable) throw JobYield(earlier->id);
+    // Meanwhile this worker classifies tiles of the running commits (the earlier one's).
+    ClassifyClaimedTiles(storage, config, std::nullopt, shutting_down);
     CheckShutdown();
     std::this_thread::sleep_for(kPoll);
   }

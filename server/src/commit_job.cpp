@@ -6,9 +6,10 @@
 //   4. per touched tile, one transaction: add the session's voxels (support) and membership
 //   5. reclassify touched tiles and their neighbours (paper Alg. 1 + 2 on the aggregate)
 // Steps 1 and 3 run in parallel over chunks of keyframes (commit_passes.cpp); step 1 reads the
-// clouds stored at upload, so each depth PNG is decoded once per commit. Steps 4 and 5 each
-// write in one transaction. A cancel request is honoured until step 4 starts; from then on
-// the job completes (a shutdown still pauses it, and it resumes at the next start).
+// clouds stored at upload, so each depth PNG is decoded once per commit. Step 4 writes in one
+// transaction; step 5's tiles are work items any worker may classify (tile_work.hpp), their
+// results published in one transaction. A cancel request is honoured until step 4 starts; from then
+// on the job completes (a shutdown still pauses it, and it resumes at the next start).
 #include <chrono>
 
 #include "api_json.hpp"
@@ -19,8 +20,8 @@
 #include "mapdelta/common/registration/gicp.hpp"
 #include "mapdelta/common/registration/registration_gate.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
-#include "parallel_for.hpp"
 #include "tile_classifier.hpp"
+#include "tile_work.hpp"
 
 namespace mapdelta::server {
 namespace {
@@ -130,6 +131,42 @@ std::map<TileId, PointCloud> TouchedTiles(JobContext& ctx, const TileGrid& grid,
   return by_tile;
 }
 
+struct Classified {
+  int64_t tiles = 0, new_points = 0, removed_points = 0;
+  Json by = Json::object();  // worker id -> tiles it classified
+};
+
+// Step 5: the touched tiles and their aggregated neighbours as one work item each, classified
+// by this and any other worker (tile_work.hpp), published at once.
+Classified ClassifyTouchedTiles(JobContext& ctx, const std::map<TileId, PointCloud>& by_tile,
+                                int64_t prior_version, int64_t session_id,
+                                ObservedArea session_area) {
+  std::set<TileId> to_classify_set;
+  for (const auto& [tile, points] : by_tile) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy)
+        to_classify_set.insert(TileId(tile.ix() + dx, tile.iy() + dy));
+    }
+  }
+  std::vector<TileId> to_classify;
+  for (const TileId& t : to_classify_set) {
+    if (ctx.storage.tiles().GetState(t)) to_classify.push_back(t);
+  }
+  ObservedCache cache(ctx.storage);
+  cache.Put(session_id, std::move(session_area));
+  Classified out;
+  for (const TileWorkItem& item :
+       ClassifyCommitTiles(ctx.storage, ctx.config, ctx.job.id, prior_version, to_classify,
+                           ctx.shutting_down, cache)) {
+    out.tiles += 1;
+    out.new_points += item.new_count;
+    out.removed_points += item.removed_count;
+    const std::string worker = item.done_by.value_or("");
+    out.by[worker] = out.by.value(worker, 0) + 1;
+  }
+  return out;
+}
+
 }  // namespace
 
 Json RunCommitJob(JobContext& ctx) {
@@ -196,38 +233,9 @@ Json RunCommitJob(JobContext& ctx) {
   ctx.Progress(0.85, "aggregated " + std::to_string(by_tile.size()) + " tiles");
   const auto t4 = std::chrono::steady_clock::now();
 
-  // 5. Reclassify touched tiles and neighbours whose margin saw the new evidence, in
-  //    parallel (tiles are independent), written in one transaction.
-  std::set<TileId> to_classify_set;
-  for (const auto& [tile, points] : by_tile) {
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy)
-        to_classify_set.insert(TileId(tile.ix() + dx, tile.iy() + dy));
-    }
-  }
-  std::vector<TileId> to_classify;
-  for (const TileId& t : to_classify_set) {
-    if (ctx.storage.tiles().GetState(t)) to_classify.push_back(t);
-  }
-  const ClassifyConfig cc = CurrentClassifyConfig(ctx.storage, ctx.config.classify);
-  const ChangeDetectionParams detection = PipelineDetectionParams(pc);  // the free-space rule
-  ObservedCache cache(ctx.storage);
-  cache.Put(session_id, std::move(session_observed.area));
-  std::vector<TileChangesRecord> records(to_classify.size());
-  ParallelFor(static_cast<int64_t>(to_classify.size()), pc.threads, [&](int64_t i) {
-    ctx.CheckShutdown();
-    records[i] = ClassifyTile(ctx.storage, grid, to_classify[i], prior_version.value_or(0), cc,
-                              detection, cache)
-                     .record;
-    records[i].updated_ms = NowMs();
-  });
-  ctx.storage.tiles().ApplyChanges(0, records);
-  int64_t new_points = 0, removed_points = 0;
-  for (const auto& r : records) {
-    new_points += r.new_count;
-    removed_points += r.removed_count;
-  }
-  const size_t classified = records.size();
+  // 5. Reclassify touched tiles and neighbours whose margin saw the new evidence.
+  const Classified classified = ClassifyTouchedTiles(ctx, by_tile, prior_version.value_or(0),
+                                                     session_id, std::move(session_observed.area));
   ctx.storage.sessions().Finish(session_id, SessionState::kCommitted, reg.report.dump(), NowMs());
   const auto t5 = std::chrono::steady_clock::now();
   auto secs = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
@@ -235,10 +243,11 @@ Json RunCommitJob(JobContext& ctx) {
               {"keyframes", session->keyframe_count},
               {"session_points", cloud.size()},
               {"tiles_aggregated", by_tile.size()},
-              {"tiles_classified", classified},
+              {"tiles_classified", classified.tiles},
+              {"tiles_classified_by", classified.by},
               {"keyframe_clouds_recomputed", session_cloud.recomputed},
-              {"new_points", new_points},
-              {"removed_points", removed_points},
+              {"new_points", classified.new_points},
+              {"removed_points", classified.removed_points},
               {"prior_version", prior_version.value_or(0)},
               {"registration", reg.report},
               {"seconds",

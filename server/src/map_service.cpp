@@ -14,6 +14,7 @@
 #include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
+#include "tile_work.hpp"
 
 namespace mapdelta::server {
 
@@ -263,6 +264,10 @@ void MapService::WorkerLoop() {
     bool ran = false;
     try {
       ran = RunOneJob();
+      // No job to start: help classify the tiles of commits other workers run.
+      if (!ran)
+        ran = ClassifyClaimedTiles(*storage_, config_, std::nullopt,
+                                   [this] { return stopping_.load(); }) > 0;
     } catch (const std::exception& e) {
       MD_LOG(kError, "job worker: " << e.what());
     }

@@ -32,6 +32,11 @@ struct MemoryTables {
   std::map<int64_t, SessionRow> sessions;
   std::map<int64_t, JobRecord> jobs;
   std::map<int64_t, std::set<std::string>> job_tiles;
+  struct TileWorkRow {
+    TileWorkItem item;
+    TileChangesRecord staged;  // once done, until published
+  };
+  std::map<int64_t, std::map<TileId, TileWorkRow>> tile_work;  // job -> tile -> item
   std::map<TileId, TileStateRecord> tile_states;
   std::map<TileId, TileChangesRecord> tile_changes;
   std::map<std::pair<int64_t, std::string>, RefreshTileWrite> refresh_log;  // (job, tile)
@@ -119,6 +124,12 @@ class MemoryJobStore final : public JobStore, MemoryArea {
   bool IsCancelRequested(int64_t id) override;
   int RequeueInterrupted(int64_t now_ms) override;
   std::set<std::string> TilesDone(int64_t job_id) override;
+  void AddTileWork(int64_t job_id, int64_t prior_version,
+                   const std::vector<TileId>& tiles) override;
+  std::optional<TileWorkItem> ClaimTileWork(std::optional<int64_t> job_id, int64_t now_ms,
+                                            int64_t lease_ms) override;
+  bool CompleteTileWork(const TileWorkItem& claimed, const TileChangesRecord& result) override;
+  std::vector<TileWorkItem> ListTileWork(int64_t job_id) override;
   std::vector<std::pair<JobState, int64_t>> CountByState() override;
 
  private:
@@ -133,6 +144,7 @@ class MemoryTileStore final : public TileStore, MemoryArea {
   void ApplyUpdates(int64_t job_id, const std::vector<TileStateRecord>& states,
                     int64_t now_ms) override;
   void ApplyChanges(int64_t job_id, const std::vector<TileChangesRecord>& changes) override;
+  PublishOutcome PublishTileWork(int64_t job_id) override;
   std::optional<TileChangesRecord> GetChanges(const TileId& tile) override;
   std::vector<TileChangesRecord> ListChanged(const Rect& rect, double min_confidence, int64_t limit,
                                              int64_t offset, int64_t* total) override;

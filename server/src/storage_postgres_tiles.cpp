@@ -2,6 +2,14 @@
 #include "storage_postgres.hpp"
 
 namespace mapdelta::server {
+
+const char* const pg_rows::kUpsertTileChanges =
+    "ON CONFLICT (tile) DO UPDATE SET ix = EXCLUDED.ix, iy = EXCLUDED.iy, "
+    "prior_version = EXCLUDED.prior_version, new_count = EXCLUDED.new_count, "
+    "removed_count = EXCLUDED.removed_count, max_confidence = EXCLUDED.max_confidence, "
+    "changes = EXCLUDED.changes, params_json = EXCLUDED.params_json, "
+    "updated_ms = EXCLUDED.updated_ms";
+
 namespace {
 
 void WriteChanges(pg::Connection& c, const TileChangesRecord& t) {
@@ -9,13 +17,8 @@ void WriteChanges(pg::Connection& c, const TileChangesRecord& t) {
       "INSERT INTO tile_changes (tile, ix, iy, prior_version, new_count, "
       "removed_count, "
       "max_confidence, changes, params_json, updated_ms) VALUES "
-      "($1,$2,$3,$4,$5,$6,$7,$8,$9,$10) "
-      "ON CONFLICT (tile) DO UPDATE SET ix = EXCLUDED.ix, iy = EXCLUDED.iy, "
-      "prior_version = EXCLUDED.prior_version, new_count = EXCLUDED.new_count, "
-      "removed_count = EXCLUDED.removed_count, max_confidence = "
-      "EXCLUDED.max_confidence, "
-      "changes = EXCLUDED.changes, params_json = EXCLUDED.params_json, "
-      "updated_ms = EXCLUDED.updated_ms",
+      "($1,$2,$3,$4,$5,$6,$7,$8,$9,$10) " +
+          std::string(pg_rows::kUpsertTileChanges),
       pg::Params()
           .Add(t.tile.ToString())
           .Add(int64_t{t.tile.ix()})
@@ -34,6 +37,21 @@ void MarkJobTile(pg::Connection& c, int64_t job_id, const TileId& tile) {
       "INSERT INTO job_tiles (job_id, tile) VALUES ($1,$2) ON CONFLICT DO "
       "NOTHING",
       pg::Params().Add(job_id).Add(tile.ToString()));
+}
+
+// A tile_changes row without its blob, as kChangesColumns select it (columns 0-7).
+constexpr const char* kChangesColumns =
+    "ix, iy, prior_version, new_count, removed_count, max_confidence, params_json, updated_ms";
+TileChangesRecord TileChangesFromRow(const pg::Result& r, int row) {
+  TileChangesRecord t;
+  t.tile = TileId(static_cast<int32_t>(r.Int(row, 0)), static_cast<int32_t>(r.Int(row, 1)));
+  t.prior_version = r.Int(row, 2);
+  t.new_count = r.Int(row, 3);
+  t.removed_count = r.Int(row, 4);
+  t.max_confidence = r.Real(row, 5);
+  t.params_json = r.Text(row, 6);
+  t.updated_ms = r.Int(row, 7);
+  return t;
 }
 
 std::vector<TileId> ReadTileIds(const pg::Result& r) {
@@ -122,20 +140,11 @@ void PostgresTileStore::ApplyChanges(int64_t job_id,
 std::optional<TileChangesRecord> PostgresTileStore::GetChanges(const TileId& tile) {
   auto c = Connect();
   const pg::Result r = c->Query(
-      "SELECT prior_version, new_count, removed_count, "
-      "max_confidence, changes, params_json, "
-      "updated_ms FROM tile_changes WHERE tile = $1",
+      std::string("SELECT ") + kChangesColumns + ", changes FROM tile_changes WHERE tile = $1",
       pg::Params().Add(tile.ToString()));
   if (r.rows() == 0) return std::nullopt;
-  TileChangesRecord t;
-  t.tile = tile;
-  t.prior_version = r.Int(0, 0);
-  t.new_count = r.Int(0, 1);
-  t.removed_count = r.Int(0, 2);
-  t.max_confidence = r.Real(0, 3);
-  t.changes = r.Bytes(0, 4);
-  t.params_json = r.Text(0, 5);
-  t.updated_ms = r.Int(0, 6);
+  TileChangesRecord t = TileChangesFromRow(r, 0);
+  t.changes = r.Bytes(0, 8);
   return t;
 }
 
@@ -146,27 +155,15 @@ std::vector<TileChangesRecord> PostgresTileStore::ListChanged(const Rect& rect,
   // count(*) OVER () gives the total beside the page in one statement (one snapshot).
   pg::Params p;
   pg_rows::AddTileRange(p, rect).Add(min_confidence).Add(limit).Add(offset);
-  const pg::Result r = c->Query(
-      "SELECT ix, iy, prior_version, new_count, "
-      "removed_count, max_confidence, params_json, "
-      "updated_ms, COUNT(*) OVER () FROM "
-      "tile_changes WHERE ix BETWEEN $1 AND $2 "
-      "AND iy BETWEEN $3 AND $4 AND max_confidence "
-      ">= $5 AND (new_count + removed_count) > 0 "
-      "ORDER BY ix, iy LIMIT $6 OFFSET $7",
-      p);
+  const pg::Result r = c->Query(std::string("SELECT ") + kChangesColumns +
+                                    ", COUNT(*) OVER () FROM "
+                                    "tile_changes WHERE ix BETWEEN $1 AND $2 "
+                                    "AND iy BETWEEN $3 AND $4 AND max_confidence "
+                                    ">= $5 AND (new_count + removed_count) > 0 "
+                                    "ORDER BY ix, iy LIMIT $6 OFFSET $7",
+                                p);
   std::vector<TileChangesRecord> out;
-  for (int i = 0; i < r.rows(); ++i) {
-    TileChangesRecord t;
-    t.tile = TileId(static_cast<int32_t>(r.Int(i, 0)), static_cast<int32_t>(r.Int(i, 1)));
-    t.prior_version = r.Int(i, 2);
-    t.new_count = r.Int(i, 3);
-    t.removed_count = r.Int(i, 4);
-    t.max_confidence = r.Real(i, 5);
-    t.params_json = r.Text(i, 6);
-    t.updated_ms = r.Int(i, 7);
-    out.push_back(t);
-  }
+  for (int i = 0; i < r.rows(); ++i) out.push_back(TileChangesFromRow(r, i));
   if (!out.empty()) {
     *total = r.Int(0, 8);
     return out;

@@ -85,6 +85,12 @@ class SqliteJobStore final : public JobStore, SqliteArea {
   bool IsCancelRequested(int64_t id) override;
   int RequeueInterrupted(int64_t now_ms) override;
   std::set<std::string> TilesDone(int64_t job_id) override;
+  void AddTileWork(int64_t job_id, int64_t prior_version,
+                   const std::vector<TileId>& tiles) override;
+  std::optional<TileWorkItem> ClaimTileWork(std::optional<int64_t> job_id, int64_t now_ms,
+                                            int64_t lease_ms) override;
+  bool CompleteTileWork(const TileWorkItem& claimed, const TileChangesRecord& result) override;
+  std::vector<TileWorkItem> ListTileWork(int64_t job_id) override;
   std::vector<std::pair<JobState, int64_t>> CountByState() override;
 
  private:
@@ -99,6 +105,7 @@ class SqliteTileStore final : public TileStore, SqliteArea {
   void ApplyUpdates(int64_t job_id, const std::vector<TileStateRecord>& states,
                     int64_t now_ms) override;
   void ApplyChanges(int64_t job_id, const std::vector<TileChangesRecord>& changes) override;
+  PublishOutcome PublishTileWork(int64_t job_id) override;
   std::optional<TileChangesRecord> GetChanges(const TileId& tile) override;
   std::vector<TileChangesRecord> ListChanged(const Rect& rect, double min_confidence, int64_t limit,
                                              int64_t offset, int64_t* total) override;

@@ -22,6 +22,7 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/server/storage.hpp"
@@ -245,13 +246,17 @@ TEST(PostgresMigrations, ReachTheSameVersionTablesAndColumnsAsSqlite) {
   OpenPostgresStorage(url, 2);
   OpenPostgresStorage(url, 2);  // a second start finds nothing to do
   pg::Connection c(url);
+  // The same applied versions on both (numbers may have gaps: a number taken by a branch that
+  // has not landed yet), the last one the binary's.
   const pg::Result versions = c.Query("SELECT version FROM schema_migrations ORDER BY version");
-  ASSERT_EQ(versions.rows(), KnownSchemaVersion());
-  EXPECT_EQ(versions.Int(versions.rows() - 1, 0), KnownSchemaVersion());
+  std::vector<int64_t> pg_versions, sqlite_versions;
+  for (int i = 0; i < versions.rows(); ++i) pg_versions.push_back(versions.Int(i, 0));
+  ASSERT_FALSE(pg_versions.empty());
+  EXPECT_EQ(pg_versions.back(), KnownSchemaVersion());
   sql::Db sqlite(sqlite_path);
-  sql::Stmt v(sqlite, "SELECT MAX(version) FROM schema_migrations");
-  ASSERT_TRUE(v.Step());
-  EXPECT_EQ(v.Int(0), KnownSchemaVersion());
+  sql::Stmt v(sqlite, "SELECT version FROM schema_migrations ORDER BY version");
+  while (v.Step()) sqlite_versions.push_back(v.Int(0));
+  EXPECT_EQ(pg_versions, sqlite_versions);
   const Schema expected = SqliteSchema(sqlite_path);
   EXPECT_GE(expected.size(), 14u);
   EXPECT_EQ(PostgresSchema(c), expected);

@@ -4,9 +4,11 @@
 //    depth and poses, the outdated prior around them) uploaded as three sessions through two
 //    API processes, committed at once and run by two workers: the same changed tiles, counts,
 //    points, confidences and observed octrees, byte for byte, as one SQLite process;
-//  - a worker SIGKILLed during a commit: another worker takes the job over once its lease ran
-//    out and ends with the uninterrupted result; keyframes of another session uploaded while
-//    the process dies are all there if they were acknowledged.
+//  - per-tile claims within one commit: two workers classify tiles of the same commit (read
+//    from the stored ownership of its tile work items), then the job's worker is SIGKILLed
+//    holding a tile claim; the other worker takes the claim and the job over once their leases
+//    ran out and ends with the uninterrupted result; keyframes of another session uploaded
+//    while the process dies are all there if they were acknowledged.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -19,6 +21,7 @@
 #include "changed_scene.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/euroc.hpp"
+#include "mapdelta/server/storage.hpp"
 #include "server_backends.hpp"
 #include "server_process.hpp"
 #include "support/temp_dir.hpp"
@@ -61,17 +64,21 @@ std::vector<Upload> SimKeyframes(Json* camera) {
 // One database (backend + config file + tokens) and the processes serving it.
 class Deployment {
  public:
-  Deployment(const std::string& backend, const fs::path& dir) : dir_(dir) {
+  // extra_yaml: more top-level config sections (e.g. "pipeline:\n  threads: 1\n").
+  Deployment(const std::string& backend, const fs::path& dir, const std::string& extra_yaml = "",
+             double tile_size_m = 20)
+      : dir_(dir) {
     fs::create_directories(dir_);
-    server::ServerConfig db;
+    server::ServerConfig& db = db_;
     UseFreshDatabase(backend, dir_, &db);
     config_ = (dir_ / "server.yaml").string();
     // lease_s 2: a killed worker's job is taken over within seconds.
     std::ofstream(config_) << "storage:\n  backend: " << db.storage.backend << "\n  database: \""
                            << db.storage.database << "\"\n  postgres_url: \""
-                           << db.storage.postgres_url
-                           << "\"\n  tile_size_m: 20\njobs:\n  lease_s: 2\n"
-                           << "log:\n  level: info\n  format: json\n";
+                           << db.storage.postgres_url << "\"\n  tile_size_m: " << tile_size_m
+                           << "\njobs:\n  lease_s: 2\n"
+                           << "log:\n  level: info\n  format: json\n"
+                           << extra_yaml;
     log_ = (dir_ / "server.log").string();
     admin_ = Token("admin");
     vehicle_ = Token("vehicle");
@@ -83,6 +90,11 @@ class Deployment {
 
   std::unique_ptr<ServerProcess> Start(const std::vector<std::string>& extra = {}) {
     return std::make_unique<ServerProcess>(config_, log_, extra);
+  }
+
+  // The database as the servers see it (PostgreSQL deployments only).
+  std::unique_ptr<server::Storage> OpenStorage() const {
+    return server::OpenPostgresStorage(db_.storage.postgres_url, 2);
   }
 
   httplib::Headers H(const std::string& token) const { return {{"Authorization", token}}; }
@@ -166,6 +178,7 @@ class Deployment {
   }
 
   fs::path dir_;
+  server::ServerConfig db_;
   std::string config_, log_, admin_, vehicle_, reader_;
 };
 
@@ -249,11 +262,47 @@ int64_t UploadBoxSession(Deployment& d, httplib::Client& c) {
   return s;
 }
 
-TEST_F(ScaleOutTest,
-       AKilledWorkersCommitIsTakenOverWithTheSameResultAndNoAcknowledgedKeyframeLost) {
+// The worker of a commit, stopped (SIGSTOP) at a moment it has classified a tile of the commit,
+// holds the claim of another and leaves at least one unclaimed. Returns its worker id, or ""
+// if the commit got past its tiles before such a moment was seen (the worker then runs on).
+std::string StopWhileHoldingTileClaims(server::Storage& db, int64_t job, pid_t worker) {
+  // Until the commit reaches its tiles (steps 1-4), it runs at full speed.
+  for (int i = 0; i < 6000 && db.jobs().ListTileWork(job).empty(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  for (int i = 0; i < 20000; ++i) {
+    ::kill(worker, SIGSTOP);
+    const auto record = db.jobs().Get(job);
+    if (!record || record->state != server::JobState::kRunning) break;
+    const std::string owner = record->lease_owner.value_or("");
+    int done = 0, held = 0, unclaimed = 0;
+    for (const server::TileWorkItem& w : db.jobs().ListTileWork(job)) {
+      done += w.done_by == owner;
+      held += !w.done_by && w.lease_owner == owner;
+      unclaimed += !w.done_by && !w.lease_owner;
+    }
+    if (done > 0 && held > 0 && unclaimed > 0) return owner;
+    ::kill(worker, SIGCONT);
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  ::kill(worker, SIGCONT);
+  return "";
+}
+
+// Workers that completed tiles of the job, with how many each.
+std::map<std::string, int> TilesDoneBy(server::Storage& db, int64_t job) {
+  std::map<std::string, int> out;
+  for (const server::TileWorkItem& w : db.jobs().ListTileWork(job)) {
+    if (w.done_by) out[*w.done_by] += 1;
+  }
+  return out;
+}
+
+TEST_F(ScaleOutTest, TwoWorkersClassifyOneCommitsTilesAndAKilledWorkersClaimsAreTakenOver) {
+  // 10 m tiles and one pipeline thread: many tiles per commit, one claim at a time.
+  const std::string config = "pipeline:\n  threads: 1\n";
   std::map<std::string, std::string> reference;
   {
-    Deployment sqlite("sqlite", dir_ / "sqlite");
+    Deployment sqlite("sqlite", dir_ / "sqlite", config, 10);
     auto server = sqlite.Start();
     httplib::Client c("127.0.0.1", server->port());
     ImportBoxPrior(sqlite, c, dir_);
@@ -264,12 +313,19 @@ TEST_F(ScaleOutTest,
   }
   ASSERT_GT(reference.size(), 3u);
 
-  Deployment d("postgres", dir_ / "postgres");
-  auto doomed = d.Start();  // API + the only worker at first
+  Deployment d("postgres", dir_ / "postgres", config, 10);
+  auto doomed = d.Start();  // API + the only worker at first: it takes the commit
   auto api = d.Start({"--api-only"});
   httplib::Client to_doomed("127.0.0.1", doomed->port()), to_api("127.0.0.1", api->port());
   ImportBoxPrior(d, to_api, dir_);
   const int64_t job = d.Commit(to_api, UploadBoxSession(d, to_api));
+  for (int i = 0;
+       i < 2000 && d.Get(to_api, "/v1/admin/jobs/" + std::to_string(job))["state"] == "queued";
+       ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  auto helper = d.Start({"--worker-only"});  // the job is taken: it helps with the tiles
+  const std::unique_ptr<server::Storage> db = d.OpenStorage();
 
   // A second vehicle uploads through both API processes while the worker process dies.
   const int64_t other = d.CreateSession(to_api, kBoxCamera);
@@ -285,30 +341,43 @@ TEST_F(ScaleOutTest,
       acknowledged.push_back(seq);
     }
   });
-  double progress_at_kill = -1;
-  for (int i = 0; i < 4000 && progress_at_kill < 0; ++i) {
-    const Json j = d.Get(to_api, "/v1/admin/jobs/" + std::to_string(job));
-    if (j["state"] == "running" && j["progress"].get<double>() >= 0.3)
-      progress_at_kill = j["progress"];
-    if (j["state"] == "succeeded") break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+
+  const std::string doomed_id = StopWhileHoldingTileClaims(*db, job, doomed->pid());
+  ASSERT_FALSE(doomed_id.empty()) << "the commit's tiles were never seen half classified";
+  // While the job's worker is stopped, the helper classifies the unclaimed tiles.
+  for (int i = 0; i < 600 && TilesDoneBy(*db, job).size() < 2; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::vector<std::string> held;  // tiles the doomed worker holds when it dies
+  for (const server::TileWorkItem& w : db->jobs().ListTileWork(job)) {
+    if (!w.done_by && w.lease_owner == doomed_id) held.push_back(w.tile.ToString());
   }
+  EXPECT_FALSE(held.empty());
   doomed->Kill(SIGKILL);
-  EXPECT_GE(progress_at_kill, 0.3) << "the commit finished before it could be killed";
-  auto rescuer = d.Start({"--worker-only"});  // takes the job once the dead worker's lease ran out
-  const Json done = d.WaitJob(to_api, job);
+
+  const Json done = d.WaitJob(to_api, job);  // the helper takes the job after its lease
   stop = true;
   uploader.join();
   ASSERT_EQ(done["state"], "succeeded") << done.dump();
   EXPECT_GE(done["attempts"].get<int>(), 2) << done.dump();
   EXPECT_EQ(d.Snapshot(to_api), reference);
 
+  const std::map<std::string, int> by = TilesDoneBy(*db, job);
+  ASSERT_EQ(by.size(), 2u) << "tiles of the one commit were not classified by both workers";
+  EXPECT_GE(by.at(doomed_id), 1);
+  for (const server::TileWorkItem& w : db->jobs().ListTileWork(job)) {
+    EXPECT_TRUE(w.published) << w.tile.ToString();
+    if (std::find(held.begin(), held.end(), w.tile.ToString()) != held.end()) {
+      EXPECT_NE(w.done_by, doomed_id) << w.tile.ToString() << ": the dead worker's claim";
+      EXPECT_GE(w.claims, 2) << w.tile.ToString();
+    }
+  }
+
   ASSERT_GE(acknowledged.size(), 2u);
   const Json s = d.Get(to_api, "/v1/sessions/" + std::to_string(other));
   EXPECT_GE(s["keyframe_count"].get<size_t>(), acknowledged.size());
   for (int seq : acknowledged)
     EXPECT_EQ(d.Put(to_api, other, seq, BoxKeyframe(seq, 20.0)), 200) << seq;
-  for (auto* p : {api.get(), rescuer.get()}) EXPECT_EQ(p->Kill(SIGTERM), 0);
+  for (auto* p : {api.get(), helper.get()}) EXPECT_EQ(p->Kill(SIGTERM), 0);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "mapdelta/server/states.hpp"
+#include "mapdelta/server/tile_store.hpp"  // TileChangesRecord, staged by CompleteTileWork
 
 namespace mapdelta::server {
 
@@ -31,6 +32,25 @@ struct JobRecord {
 struct EarlierJob {
   int64_t id = 0;
   bool claimable = false;  // queued, or running with its lease run out: no worker has it
+};
+
+// One tile of a commit job's classification as a work item (issue #19): any worker may claim
+// it, so several workers classify different tiles of one commit at the same time. An item is
+// unclaimed (no lease_owner, not done), claimed (lease_owner until lease_expires_ms), done
+// (its result staged under done_by, not yet visible to readers) or published (the results of
+// all the job's items went to the tiles at once: TileStore::PublishTileWork).
+struct TileWorkItem {
+  int64_t job_id = 0;
+  TileId tile;
+  int64_t prior_version = 0;  // the prior the job classifies against
+  // The fencing token: every claim increments it, and only the holder of the latest claim may
+  // complete the item (a worker that stalled past its lease writes nothing).
+  int64_t claims = 0;
+  std::optional<std::string> lease_owner;
+  std::optional<int64_t> lease_expires_ms;
+  std::optional<std::string> done_by;        // the worker whose result is staged
+  int64_t new_count = 0, removed_count = 0;  // of the staged result
+  bool published = false;
 };
 
 // A new lease owner id for this process: "host:pid:random".
@@ -74,6 +94,24 @@ class JobStore {
   virtual int RequeueInterrupted(int64_t now_ms) = 0;
   // Tiles the job recorded as applied (TileStore::ApplyUpdates / ApplyChanges).
   virtual std::set<std::string> TilesDone(int64_t job_id) = 0;
+  // Per-tile work of a commit job (TileWorkItem). Adds an unclaimed item per tile, classified
+  // against prior_version; tiles the job already lists keep their item as it is (a resumed job
+  // does not redo what is done).
+  virtual void AddTileWork(int64_t job_id, int64_t prior_version,
+                           const std::vector<TileId>& tiles) = 0;
+  // Claims one item that is not done, of a running job (of job_id if given, else of the oldest
+  // job with work): unclaimed, or claimed under a lease that ran out at now_ms (its worker died
+  // or stalled). claims + 1, leased to worker_id() until now_ms + lease_ms; the lowest tile
+  // (ix, iy) first. Several processes may claim at once on a shared backend; each claim goes
+  // to one of them and never waits for another's.
+  virtual std::optional<TileWorkItem> ClaimTileWork(std::optional<int64_t> job_id, int64_t now_ms,
+                                                    int64_t lease_ms) = 0;
+  // Stages result (the tile's classification; result.tile is the item's) and marks the item
+  // done by worker_id(), if it is still claimed by this worker under claimed.claims; returns
+  // false, writing nothing, if it is not (taken over after its lease, or done already).
+  virtual bool CompleteTileWork(const TileWorkItem& claimed, const TileChangesRecord& result) = 0;
+  // The job's items, ordered by tile (ix, iy).
+  virtual std::vector<TileWorkItem> ListTileWork(int64_t job_id) = 0;
   // Only states with at least one job, in no particular order.
   virtual std::vector<std::pair<JobState, int64_t>> CountByState() = 0;
 };

@@ -34,6 +34,13 @@ struct RefreshTileWrite {
   Bytes points;
 };
 
+// What TileStore::PublishTileWork did.
+enum class PublishOutcome {
+  kPublished,         // this call published the job's results
+  kAlreadyPublished,  // an earlier call did (any worker may call it; only one publishes)
+  kNotReady,          // an item is not done yet, or the job has none: nothing written
+};
+
 class TileStore {
  public:
   virtual ~TileStore() = default;
@@ -49,6 +56,10 @@ class TileStore {
   // One transaction for all: the tiles' classifications, plus each tile recorded as done by
   // job_id if job_id > 0 (Error(kConflict), nothing written, if that job does not exist).
   virtual void ApplyChanges(int64_t job_id, const std::vector<TileChangesRecord>& changes) = 0;
+  // One transaction: if every work item of job_id (JobStore::AddTileWork) is done, their staged
+  // results become the tiles' classifications (as ApplyChanges) and the items published (their
+  // staged blobs dropped), so readers see all the commit's tiles change at once or none.
+  virtual PublishOutcome PublishTileWork(int64_t job_id) = 0;
   virtual std::optional<TileChangesRecord> GetChanges(const TileId& tile) = 0;
   // Tiles in the rect with max_confidence >= min_confidence and at least one change, ordered
   // by (ix, iy), without their change blobs; *total = how many match before paging.
