@@ -57,5 +57,10 @@ ClassifyConfig ClassifyConfigFromJson(const Json& j, const ClassifyConfig& base)
 Json RunCommitJob(JobContext& ctx);   // returns the result JSON
 Json RunRefreshJob(JobContext& ctx);  // finishes the job itself (atomically with the version)
 Json RunReclassifyJob(JobContext& ctx);
+Json RunRollbackJob(JobContext& ctx);  // rollback_job.cpp
+// A rollback request's params {"version", "cause"?}, checked against the latest version:
+// throws ApiError(kInvalidArgument) for other fields or a bad cause, kNotFound for a version
+// that does not exist or the latest itself (already current: nothing to roll back).
+Json RollbackJobParams(const Json& body, int64_t latest);
 
 }  // namespace mapdelta::server

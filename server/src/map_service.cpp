@@ -310,6 +310,9 @@ bool MapService::RunOneJob() {
       case JobType::kReclassify:
         result = RunReclassifyJob(ctx);
         break;
+      case JobType::kRollback:
+        result = RunRollbackJob(ctx);
+        break;
     }
     jobs.Finish(job->id, JobState::kSucceeded, "done", result.dump(), NowMs());
     MD_LOG(kInfo, "job " << job->id << " succeeded: " << result.dump());

@@ -391,12 +391,17 @@ FilePayload MapService::GetObservedTile(const std::string& tile_text) {
 // ---------------------------------------------------------------- admin jobs
 
 Json MapService::CreateJob(const Json& body) {
-  RejectUnknownFields(body, {"type", "tiles", "bbox", "min_confidence", "min_support", "params"},
-                      "body");
+  RejectUnknownFields(
+      body,
+      {"type", "tiles", "bbox", "min_confidence", "min_support", "params", "version", "cause"},
+      "body");
   const std::string type_text = StringField(body, "type");
   const std::optional<JobType> type =
       ParseEnum<JobType>(type_text);  // commit: POST .../commit only
   Json params = Json::object();
+  if (type != JobType::kRollback && (body.contains("version") || body.contains("cause"))) {
+    throw ApiError(ApiCode::kInvalidArgument, "'version' and 'cause' are for rollback jobs only");
+  }
   if (body.contains("tiles") && body.contains("bbox"))
     throw ApiError(ApiCode::kInvalidArgument, "give tiles or bbox, not both");
   if (body.contains("tiles")) {
@@ -447,8 +452,11 @@ Json MapService::CreateJob(const Json& body) {
     const Json p = body.value("params", Json::object());
     ClassifyConfigFromJson(p, config_.classify);  // validate now, not in the job
     params["params"] = p;
+  } else if (type == JobType::kRollback) {
+    params = RollbackJobParams(body, RequirePriorVersion());
   } else {
-    throw ApiError(ApiCode::kInvalidArgument, "field 'type': must be refresh or reclassify");
+    throw ApiError(ApiCode::kInvalidArgument,
+                   "field 'type': must be refresh, reclassify or rollback");
   }
   const int64_t id = storage_->jobs().Create(*type, params.dump(), NowMs());
   wake_.notify_all();

@@ -15,9 +15,9 @@ namespace mapdelta::server {
 
 enum class Role { kVehicle, kReader, kAdmin };
 enum class SessionState { kOpen, kCommitting, kCommitted, kFailed };
-enum class JobType { kCommit, kRefresh, kReclassify };
+enum class JobType { kCommit, kRefresh, kReclassify, kRollback };
 enum class JobState { kQueued, kRunning, kSucceeded, kFailed, kCancelled };
-enum class PriorSource { kImport, kRefresh };  // how a prior version was made
+enum class PriorSource { kImport, kRefresh, kRollback };  // how a prior version was made
 
 // EnumNames<E>::kValues lists every value of E (declaration order) with its name;
 // EnumNames<E>::kWhat names the set in error messages.
@@ -46,9 +46,10 @@ struct EnumNames<SessionState> {
 template <>
 struct EnumNames<JobType> {
   static constexpr std::string_view kWhat = "job type";
-  static constexpr NameTable<JobType, 3> kValues{{{JobType::kCommit, "commit"},
+  static constexpr NameTable<JobType, 4> kValues{{{JobType::kCommit, "commit"},
                                                   {JobType::kRefresh, "refresh"},
-                                                  {JobType::kReclassify, "reclassify"}}};
+                                                  {JobType::kReclassify, "reclassify"},
+                                                  {JobType::kRollback, "rollback"}}};
 };
 
 template <>
@@ -64,8 +65,9 @@ struct EnumNames<JobState> {
 template <>
 struct EnumNames<PriorSource> {
   static constexpr std::string_view kWhat = "prior source";
-  static constexpr NameTable<PriorSource, 2> kValues{
-      {{PriorSource::kImport, "import"}, {PriorSource::kRefresh, "refresh"}}};
+  static constexpr NameTable<PriorSource, 3> kValues{{{PriorSource::kImport, "import"},
+                                                      {PriorSource::kRefresh, "refresh"},
+                                                      {PriorSource::kRollback, "rollback"}}};
 };
 
 template <typename E>
