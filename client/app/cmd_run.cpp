@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -16,6 +18,7 @@
 #include "mapdelta/client/prior_source.hpp"
 #include "mapdelta/client/registration_report.hpp"
 #include "mapdelta/client/stereo_input.hpp"
+#include "mapdelta/client/upload_queue.hpp"
 #include "mapdelta/client/uploader.hpp"
 #include "mapdelta/common/cli.hpp"
 #include "mapdelta/common/error.hpp"
@@ -133,9 +136,120 @@ void WriteTiming(const std::string& path, const PipelineResult& r) {
   std::fprintf(stderr, "%s", s.str().c_str());
 }
 
+// Refuses an OUT that holds an earlier run (a second run would append a second copy of the
+// keyframes, and a second series of uploads into the first run's session); says how to resume.
+bool PrepareOutputFolder(const std::string& out, const ClientConfig& config) {
+  if (fs::exists(out + "/keyframes") || fs::exists(out + "/keyframes.upload_queue")) {
+    std::fprintf(stderr,
+                 "%s already holds the output of an earlier run. Resume its upload with\n"
+                 "  mapdelta-client upload %s/keyframes --server URL --token T\n"
+                 "or choose another --out.\n",
+                 out.c_str(), out.c_str());
+    return false;
+  }
+  fs::create_directories(out);
+  std::ofstream(out + "/config.yaml") << ToYaml(config);
+  MD_LOG(kInfo, "effective configuration written to " << out << "/config.yaml");
+  return true;
+}
+
+// The odometry the options name, and (with --inject-reset-at) the reset-injecting wrapper
+// around it; Get() is the one the pipeline reads.
+struct Odometry {
+  std::unique_ptr<OdometrySource> source, injected;
+  OdometrySource* Get() const { return injected ? injected.get() : source.get(); }
+};
+
+Odometry MakeOdometry(const RunOptions& o, const StereoInput& input) {
+  Odometry odometry;
+  if (o.odometry == "vio") {
+#ifdef MAPDELTA_CLIENT_HAS_VIO
+    odometry.source = std::make_unique<VioOdometrySource>(input);
+#else
+    throw Error(ErrorCode::kUnsupported, "--odometry vio: this build has no VIO (client/vio)");
+#endif
+  } else if (o.odometry == "gt") {
+    odometry.source = std::make_unique<TrajectoryOdometrySource>(input.sequence().groundtruth);
+  } else {
+    odometry.source = std::make_unique<TrajectoryOdometrySource>(o.odometry);
+  }
+  if (o.inject_reset) {
+    const auto frames = input.sequence().StereoFrames();
+    if (frames.empty()) throw Error(ErrorCode::kNotFound, o.sequence + ": no stereo frames");
+    const SE3 T_new_old =
+        MakeSE3(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitZ())),
+                Eigen::Vector3d(30.0, -40.0, 2.0));
+    odometry.injected = std::make_unique<InjectedResetOdometrySource>(
+        odometry.source.get(),
+        frames.front().t_ns + static_cast<int64_t>(o.inject_reset_at_s * 1e9), o.inject_reset_gap_s,
+        T_new_old);
+    MD_LOG(kInfo, "injecting an odometry reset at +" << o.inject_reset_at_s << " s (gap "
+                                                     << o.inject_reset_gap_s << " s)");
+  }
+  return odometry;
+}
+
+// The durable upload queue and the uploader draining it on a thread of its own, while the
+// pipeline runs (only with --server and without --no-upload).
+class BackgroundUpload {
+ public:
+  BackgroundUpload(const ClientConfig& config, const PinholeCamera& keyframe_camera,
+                   const std::string& queue_dir, HttpTransport* transport)
+      : queue_(queue_dir), uploader_(config.upload, keyframe_camera, &queue_, transport) {
+    thread_ = std::thread([this] {
+      report_ = uploader_.Run(stop_);
+      finished_ = true;
+    });
+  }
+  ~BackgroundUpload() { Stop(); }
+  Uploader* uploader() { return &uploader_; }
+  void Stop() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+  // Seals the queue and waits up to wait_s for the uploader to send and commit it, with a
+  // progress line; then stops it. Returns its report.
+  UploadReport Finish(double wait_s) {
+    queue_.Seal();
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
+    ProgressLine progress;
+    while (!finished_ && std::chrono::steady_clock::now() < deadline) {
+      progress.Update("upload: " + std::to_string(queue_.PendingCount()) + " keyframes pending");
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    }
+    Stop();
+    progress.Finish();
+    return report_;
+  }
+
+ private:
+  UploadQueue queue_;
+  Uploader uploader_;
+  std::atomic<bool> stop_{false}, finished_{false};
+  UploadReport report_;
+  std::thread thread_;
+};
+
+// Covariance calibration of the accepted registrations against the sequence's ground truth,
+// when it has one.
+void ReportCovarianceCalibration(const PipelineResult& result, const Trajectory& groundtruth) {
+  const CovarianceCalibration c = CalibrateAgainst(result.registrations, groundtruth);
+  if (c.registrations == 0) return;
+  std::fprintf(stderr,
+               "registration covariance vs ground truth (%zu accepted): within 3 sigma %.3f "
+               "(rx %.2f ry %.2f rz %.2f tx %.2f ty %.2f tz %.2f), mean NEES %.1f (6 if "
+               "calibrated), rms error / sigma %.2f %.2f %.2f %.2f %.2f %.2f; covariance factor "
+               "for 97%% within 3 sigma %.2f\n",
+               c.registrations, c.within_3sigma_all, c.within_3sigma[0], c.within_3sigma[1],
+               c.within_3sigma[2], c.within_3sigma[3], c.within_3sigma[4], c.within_3sigma[5],
+               c.mean_nees, c.rms_over_sigma[0], c.rms_over_sigma[1], c.rms_over_sigma[2],
+               c.rms_over_sigma[3], c.rms_over_sigma[4], c.rms_over_sigma[5], c.scale_for_97);
+}
+
 }  // namespace
 
-int RunPipeline(int argc, char** argv) {
+int RunPipelineCommand(int argc, char** argv) {
   RunOptions o;
   if (!ParseRunOptions(argc, argv, &o)) return cli::kExitOk;
   log::Level level = log::Level::kInfo;
@@ -143,53 +257,14 @@ int RunPipeline(int argc, char** argv) {
   log::SetLevel(level);
   const ClientConfig config = o.config.empty() ? ClientConfig{} : LoadClientConfig(o.config);
   const std::string& out = o.out;
-  // A second run into the same folder would append a second copy of the keyframes (and a
-  // second series of uploads into the first run's session): refuse, and say how to resume.
-  if (fs::exists(out + "/keyframes") || fs::exists(out + "/keyframes.upload_queue")) {
-    std::fprintf(stderr,
-                 "%s already holds the output of an earlier run. Resume its upload with\n"
-                 "  mapdelta-client upload %s/keyframes --server URL --token T\n"
-                 "or choose another --out.\n",
-                 out.c_str(), out.c_str());
-    return 2;
-  }
-  fs::create_directories(out);
-  std::ofstream(out + "/config.yaml") << ToYaml(config);
-  MD_LOG(kInfo, "effective configuration written to " << out << "/config.yaml");
+  if (!PrepareOutputFolder(out, config)) return cli::kExitUsage;
 
-  std::unique_ptr<OdometrySource> odometry;
-  std::unique_ptr<StereoInput> vio_input;  // the VIO reads it while the pipeline runs
-  if (o.odometry == "vio") {
-#ifdef MAPDELTA_CLIENT_HAS_VIO
-    vio_input = std::make_unique<StereoInput>(ReadEurocSequence(o.sequence));
-    odometry = std::make_unique<VioOdometrySource>(*vio_input);
-#else
-    throw Error(ErrorCode::kUnsupported, "--odometry vio: this build has no VIO (client/vio)");
-#endif
-  } else if (o.odometry == "gt") {
-    odometry =
-        std::make_unique<TrajectoryOdometrySource>(ReadEurocSequence(o.sequence).groundtruth);
-  } else {
-    odometry = std::make_unique<TrajectoryOdometrySource>(o.odometry);
-  }
-  std::unique_ptr<OdometrySource> injected;
-  if (o.inject_reset) {
-    const auto frames = ReadEurocSequence(o.sequence).StereoFrames();
-    if (frames.empty()) throw Error(ErrorCode::kNotFound, o.sequence + ": no stereo frames");
-    const double at_s = o.inject_reset_at_s;
-    const double gap_s = o.inject_reset_gap_s;
-    const SE3 T_new_old =
-        MakeSE3(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitZ())),
-                Eigen::Vector3d(30.0, -40.0, 2.0));
-    injected = std::make_unique<InjectedResetOdometrySource>(
-        odometry.get(), frames.front().t_ns + static_cast<int64_t>(at_s * 1e9), gap_s, T_new_old);
-    MD_LOG(kInfo, "injecting an odometry reset at +" << at_s << " s (gap " << gap_s << " s)");
-  }
+  // The sequence, read and rectified once for every stage (odometry, depth, upload camera).
+  const StereoInput input(ReadEurocSequence(o.sequence));
+  const Odometry odometry = MakeOdometry(o, input);
   std::unique_ptr<HttpTransport> transport;
+  if (!o.server.empty()) transport = MakeHttpTransport(o.server, o.token, config.upload.timeout_s);
   std::unique_ptr<PriorSource> prior;
-  if (!o.server.empty()) {
-    transport = MakeHttpTransport(o.server, o.token, config.upload.timeout_s);
-  }
   if (!o.prior.empty()) {
     prior = std::make_unique<FilePriorSource>(o.prior, config.registration.prior_voxel_m);
   } else {
@@ -199,85 +274,37 @@ int RunPipeline(int argc, char** argv) {
 
   PipelineInputs in;
   in.sequence_dir = o.sequence;
-  in.odometry = injected ? injected.get() : odometry.get();
+  in.input = &input;
+  in.odometry = odometry.Get();
   in.prior = prior.get();
   in.keyframe_dir = out + "/keyframes";
   if (!o.initial_pose.empty()) in.initial_T_map_body = ParsePose(o.initial_pose);
   in.max_frames = o.max_frames;
-
-  std::unique_ptr<UploadQueue> queue;
-  std::unique_ptr<Uploader> uploader;
-  std::atomic<bool> stop{false}, upload_finished{false};
-  UploadReport upload_report;
-  std::thread upload_thread;
+  std::optional<BackgroundUpload> upload;
   if (transport && !o.no_upload) {
-    queue = std::make_unique<UploadQueue>(out + "/keyframes.upload_queue");
-    // The keyframes' camera: the rectified one when the recorded pair is not (StereoInput).
-    const StereoInput input(ReadEurocSequence(in.sequence_dir));
-    uploader = std::make_unique<Uploader>(config.upload, KeyframeCamera(config, input.rig().left),
-                                          queue.get(), transport.get());
-    in.uploader = uploader.get();
-    upload_thread = std::thread([&] {
-      upload_report = uploader->Run(stop);
-      upload_finished = true;
-    });
+    upload.emplace(config, KeyframeCamera(config, input.rig().left),
+                   out + "/keyframes.upload_queue", transport.get());
+    in.uploader = upload->uploader();
   }
 
-  PipelineResult result;
-  try {
-    result = mapdelta::client::RunPipeline(config, in);
-  } catch (...) {
-    stop = true;
-    if (upload_thread.joinable()) upload_thread.join();
-    throw;
-  }
+  const PipelineResult result = RunPipeline(config, in);  // on a throw, ~BackgroundUpload stops
   WriteTumTrajectory(out + "/vio.txt", result.vio_T_map_body);
   WriteTumTrajectory(out + "/fused.txt", result.fused_T_map_body);
   WriteTiming(out + "/timing.txt", result);
   WriteRegistrationsCsv(out + "/registrations.csv", result.registrations);
-  {
-    // Covariance calibration against the sequence's ground truth, when it has one.
-    const EurocSequence seq = ReadEurocSequence(in.sequence_dir);
-    const CovarianceCalibration c = CalibrateAgainst(result.registrations, seq.groundtruth);
-    if (c.registrations > 0) {
-      std::fprintf(
-          stderr,
-          "registration covariance vs ground truth (%zu accepted): within 3 sigma %.3f "
-          "(rx %.2f ry %.2f rz %.2f tx %.2f ty %.2f tz %.2f), mean NEES %.1f (6 if calibrated), "
-          "rms error / sigma %.2f %.2f %.2f %.2f %.2f %.2f; covariance factor for 97%% within 3 "
-          "sigma %.2f\n",
-          c.registrations, c.within_3sigma_all, c.within_3sigma[0], c.within_3sigma[1],
-          c.within_3sigma[2], c.within_3sigma[3], c.within_3sigma[4], c.within_3sigma[5],
-          c.mean_nees, c.rms_over_sigma[0], c.rms_over_sigma[1], c.rms_over_sigma[2],
-          c.rms_over_sigma[3], c.rms_over_sigma[4], c.rms_over_sigma[5], c.scale_for_97);
-    }
+  ReportCovarianceCalibration(result, input.sequence().groundtruth);
+  if (!upload) return cli::kExitOk;
+  const UploadReport report = upload->Finish(o.upload_wait_s);
+  if (!report.committed) {
+    std::fprintf(stderr,
+                 "upload not finished (%s): resume with 'mapdelta-client upload %s/keyframes "
+                 "--server URL --token T'\n",
+                 report.fatal.empty() ? "timed out" : report.fatal.c_str(), out.c_str());
+    return 3;
   }
-
-  if (upload_thread.joinable()) {
-    queue->Seal();
-    const double wait_s = o.upload_wait_s;
-    const auto deadline = std::chrono::steady_clock::now() +
-                          std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
-    ProgressLine progress;
-    while (!upload_finished && std::chrono::steady_clock::now() < deadline) {
-      progress.Update("upload: " + std::to_string(queue->PendingCount()) + " keyframes pending");
-      std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    }
-    stop = true;
-    upload_thread.join();
-    progress.Finish();
-    if (!upload_report.committed) {
-      std::fprintf(stderr,
-                   "upload not finished (%s): resume with 'mapdelta-client upload %s/keyframes "
-                   "--server URL --token T'\n",
-                   upload_report.fatal.empty() ? "timed out" : upload_report.fatal.c_str(),
-                   out.c_str());
-      return 3;
-    }
-    std::fprintf(stderr, "upload: session %s committed (%zu keyframes)\n",
-                 upload_report.session_id.c_str(), upload_report.uploaded);
-  }
-  return 0;
+  std::fprintf(stderr, "upload: session %s committed (%zu keyframes)\n", report.session_id.c_str(),
+               report.uploaded);
+  return cli::kExitOk;
 }
 
 }  // namespace mapdelta::client::app

@@ -4,7 +4,7 @@ namespace mapdelta::client::app {
 
 int RunDisparity(int argc, char** argv);
 int RunConfig(int argc, char** argv);
-int RunPipeline(int argc, char** argv);
+int RunPipelineCommand(int argc, char** argv);  // "run": the library's RunPipeline over a sequence
 int RunUpload(int argc, char** argv);
 int RunDrift(int argc, char** argv);
 int RunDepthEval(int argc, char** argv);

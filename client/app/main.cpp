@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   const std::map<std::string, int (*)(int, char**)> commands = {
       {"disparity", app::RunDisparity}, {"config", app::RunConfig},
-      {"run", app::RunPipeline},        {"upload", app::RunUpload},
+      {"run", app::RunPipelineCommand}, {"upload", app::RunUpload},
       {"drift", app::RunDrift},         {"depth-eval", app::RunDepthEval}};
   const auto it = commands.find(command);
   if (it == commands.end()) {

@@ -1,9 +1,13 @@
 #include "mapdelta/client/pipeline.hpp"
 
 #include <atomic>
+#include <chrono>
 #include <deque>
 #include <exception>
+#include <functional>
+#include <optional>
 #include <thread>
+#include <vector>
 
 #include "mapdelta/client/image.hpp"
 #include "mapdelta/client/local_cloud.hpp"
@@ -16,6 +20,7 @@
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/euroc.hpp"
 #include "mapdelta/common/keyframes.hpp"
+#include "mapdelta/common/lie.hpp"
 #include "mapdelta/common/log.hpp"
 #include "stage_timer.hpp"
 
@@ -59,12 +64,6 @@ struct Failure {
     if (!error) error = e;
   }
 };
-
-Eigen::Matrix3d SkewOf(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return S;
-}
 
 bool IsNewKeyframe(const SE3& last, int64_t last_t, const SE3& now, int64_t t,
                    const KeyframeSelectionConfig& c) {
@@ -318,7 +317,7 @@ class Backend {
         Matrix6 Ad = Matrix6::Zero();
         Ad.topLeftCorner<3, 3>() = R;
         Ad.bottomRightCorner<3, 3>() = R;
-        Ad.bottomLeftCorner<3, 3>() = -R * SkewOf(rig_.T_body_cam0.translation());
+        Ad.bottomLeftCorner<3, 3>() = -R * Skew(rig_.T_body_cam0.translation());
         f.keyframe.covariance = Ad * *covariances[i] * Ad.transpose();
       }
       f.keyframe.t_ns = fusion_.t_ns(first_unemitted_);
@@ -350,6 +349,176 @@ class Backend {
   size_t since_cloud_ = 0;  // keyframes of the current segment since the last local cloud
 };
 
+// Everything the pipeline's threads share: the input, the queues between the stages, the
+// stage timer, the first failure and the counters.
+struct PipelineRun {
+  PipelineRun(const ClientConfig& c, const PipelineInputs& i, const StereoInput& s,
+              std::vector<StereoFrameFiles> f)
+      : config(c),
+        in(i),
+        input(s),
+        rig(s.rig()),
+        frames(std::move(f)),
+        decode_ahead(i.decode_ahead && i.odometry->NeedsImages()) {}
+  const ClientConfig& config;
+  const PipelineInputs& in;
+  const StereoInput& input;
+  const StereoRig& rig;
+  const std::vector<StereoFrameFiles> frames;
+  const bool decode_ahead;
+  PipelineResult result;
+  StageTimer timer;
+  Failure failure;
+  BoundedQueue<DecodedFrame> decoded_queue{kDecodedQueueCapacity};
+  BoundedQueue<KeyframeImages> keyframe_queue{kKeyframeQueueCapacity};
+  BoundedQueue<KeyframeDepth> depth_queue{kDepthQueueCapacity};
+  BoundedQueue<FinalKeyframe> output_queue{kOutputQueueCapacity};
+  std::atomic<size_t> frames_done{0}, keyframes{0};
+};
+
+// Stage 0 (only for odometry that uses the images): decodes every frame ahead of the
+// odometry, once for it and the keyframe depth, and runs the odometry's frame-local part
+// (the VIO's feature tracking). PNG decoding was ~13 % of the VIO thread, tracking ~35 %.
+void DecodeStage(PipelineRun& run) {
+  try {
+    for (const auto& frame : run.frames) {
+      DecodedFrame d{&frame, run.input.ReadLeft(frame), run.input.ReadRight(frame)};
+      {
+        StageTimer::Scope t(&run.timer, "0 odometry front end");
+        run.in.odometry->PrepareFrame(frame.t_ns, StereoImages{d.left, d.right});
+      }
+      if (!run.decoded_queue.Push(std::move(d))) break;
+    }
+  } catch (...) {
+    run.failure.Set(std::current_exception());
+  }
+  run.decoded_queue.Close();
+}
+
+// Stage A: frames -> odometry -> keyframe selection.
+void KeyframeStage(PipelineRun& run) {
+  try {
+    std::optional<std::pair<int64_t, SE3>> last;
+    int last_segment = 0;
+    for (size_t i = 0; i < run.frames.size(); ++i) {
+      std::optional<DecodedFrame> decoded;
+      if (run.decode_ahead) {
+        decoded = run.decoded_queue.Pop();
+        if (!decoded) break;  // the decoder failed or the pipeline is shutting down
+      }
+      const StereoFrameFiles& frame = run.frames[i];
+      ++run.frames_done;
+      if (run.frames_done % 100 == 0) {
+        MD_LOG(kInfo, "progress: frame " << run.frames_done << "/" << run.frames.size() << ", "
+                                         << run.keyframes << " keyframes");
+      }
+      std::optional<OdometrySample> odom;
+      {
+        StageTimer::Scope t(&run.timer, "0 odometry");
+        const std::optional<StereoImages> images =
+            decoded ? std::optional<StereoImages>(StereoImages{decoded->left, decoded->right})
+                    : std::nullopt;
+        odom = run.in.odometry->At(frame.t_ns, images ? &*images : nullptr);
+      }
+      if (!odom) continue;
+      // A new odometry segment (reset) always starts with a keyframe: its poses are not
+      // comparable with the previous keyframe's.
+      if (last && odom->segment == last_segment &&
+          !IsNewKeyframe(last->second, last->first, odom->T_odom_body, frame.t_ns,
+                         run.config.keyframes)) {
+        continue;
+      }
+      last = {frame.t_ns, odom->T_odom_body};
+      last_segment = odom->segment;
+      KeyframeImages kf{&frame, *odom, {}, {}};
+      if (decoded) {
+        kf.left = std::move(decoded->left);
+        kf.right = std::move(decoded->right);
+      }
+      ++run.keyframes;
+      if (!run.keyframe_queue.Push(std::move(kf))) break;
+    }
+  } catch (...) {
+    run.failure.Set(std::current_exception());
+  }
+  run.decoded_queue.Close();  // unblocks the decoder when this stage stops early
+  run.keyframe_queue.Close();
+}
+
+// Stage A2: keyframe depth, on its own thread so the odometry never waits for SGBM.
+void DepthStage(PipelineRun& run) {
+  try {
+    const StereoDepth stereo(run.config.stereo);
+    while (auto kf = run.keyframe_queue.Pop()) {
+      KeyframeDepth out{kf->frame->t_ns, kf->odom, {}};
+      if (kf->left.pixels.empty()) kf->left = run.input.ReadLeft(*kf->frame);
+      if (kf->right.pixels.empty()) kf->right = run.input.ReadRight(*kf->frame);
+      {
+        StageTimer::Scope t(&run.timer, "1 stereo depth");
+        out.raw = stereo.ComputeDepth(kf->left, kf->right, run.rig);
+      }
+      if (!run.depth_queue.Push(std::move(out))) break;
+    }
+  } catch (...) {
+    run.failure.Set(std::current_exception());
+  }
+  run.keyframe_queue.Close();
+  run.depth_queue.Close();
+}
+
+// Stage C: keyframe folder + upload queue, without the band SGBM cannot match (see
+// CropLeftBand; the uploader's session camera is KeyframeCamera(), the same crop).
+void OutputStage(PipelineRun& run) {
+  try {
+    const int band = StereoDepth(run.config.stereo).UnmatchedBandFor(run.rig.left.width);
+    const PinholeCamera out_camera = CropLeftBand(run.rig.left, band);
+    while (auto f = run.output_queue.Pop()) {
+      StageTimer::Scope t(&run.timer, "6 output + upload queue");
+      f->keyframe.depth = CropLeftBand(f->keyframe.depth, band);
+      if (!run.in.keyframe_dir.empty())
+        AppendKeyframe(run.in.keyframe_dir, out_camera, run.config.upload.depth_scale, f->keyframe);
+      if (run.in.uploader != nullptr) run.in.uploader->Enqueue(f->keyframe);
+    }
+  } catch (...) {
+    run.failure.Set(std::current_exception());
+    run.output_queue.Close();
+  }
+}
+
+// The map pose of the first keyframe: the caller's guess, else the sequence's ground truth.
+SE3 InitialGuess(const PipelineRun& run, int64_t t_ns) {
+  SE3 guess;
+  if (run.in.initial_T_map_body) return *run.in.initial_T_map_body;
+  const Trajectory& groundtruth = run.input.sequence().groundtruth;
+  if (!groundtruth.empty() && InterpolateAt(groundtruth, t_ns, &guess)) {
+    MD_LOG(kWarn, "no initial pose given: using the sequence's ground truth at the first keyframe");
+    return guess;
+  }
+  throw Error(ErrorCode::kInvalidArgument,
+              "no initial pose given and the sequence has no ground truth to take it from");
+}
+
+// Stage B, on the caller's thread: filter, registration, fusion, finalization.
+void BackendStage(PipelineRun& run) {
+  try {
+    std::optional<Backend> backend;
+    while (auto kf = run.depth_queue.Pop()) {
+      if (!backend) {
+        backend.emplace(run.config, run.in, run.rig, InitialGuess(run, kf->t_ns), &run.timer,
+                        &run.output_queue, &run.result);
+      }
+      backend->Add(std::move(*kf));
+    }
+    if (backend) backend->Finish();
+  } catch (...) {
+    run.failure.Set(std::current_exception());
+    run.depth_queue.Close();
+  }
+  run.output_queue.Close();
+  run.keyframe_queue.Close();  // after a backend failure: unblocks stages A and A2
+  run.decoded_queue.Close();
+}
+
 }  // namespace
 
 PinholeCamera KeyframeCamera(const ClientConfig& config, const PinholeCamera& left) {
@@ -361,172 +530,31 @@ PipelineResult RunPipeline(const ClientConfig& config, const PipelineInputs& in)
     throw Error(ErrorCode::kInvalidArgument, "pipeline needs an odometry source");
   const auto wall_start = std::chrono::steady_clock::now();
   // Rectified once on input (distorted EuRoC pairs) for every stage below.
-  const StereoInput input(ReadEurocSequence(in.sequence_dir));
-  const EurocSequence& seq = input.sequence();
-  const StereoRig& rig = input.rig();
-  auto frames = seq.StereoFrames();
+  std::optional<StereoInput> own_input;
+  if (in.input == nullptr) own_input.emplace(ReadEurocSequence(in.sequence_dir));
+  const StereoInput& input = in.input ? *in.input : *own_input;
+  auto frames = input.sequence().StereoFrames();
   if (in.max_frames > 0 && frames.size() > static_cast<size_t>(in.max_frames))
     frames.resize(in.max_frames);
   if (frames.empty()) throw Error(ErrorCode::kNotFound, in.sequence_dir + ": no stereo frames");
 
-  PipelineResult result;
-  StageTimer timer;
-  Failure failure;
-  BoundedQueue<KeyframeDepth> depth_queue(kDepthQueueCapacity);
-  BoundedQueue<FinalKeyframe> output_queue(kOutputQueueCapacity);
-  std::atomic<size_t> frames_done{0}, keyframes{0};
-
-  // Stage 0 (only for odometry that uses the images): decodes every frame ahead of the
-  // odometry, once for it and the keyframe depth, and runs the odometry's frame-local part
-  // (the VIO's feature tracking). PNG decoding was ~13 % of the VIO thread, tracking ~35 %.
-  BoundedQueue<DecodedFrame> decoded_queue(kDecodedQueueCapacity);
-  const bool decode_ahead = in.decode_ahead && in.odometry->NeedsImages();
+  PipelineRun run(config, in, input, std::move(frames));
   std::thread stage_decode;
-  if (decode_ahead) {
-    stage_decode = std::thread([&] {
-      try {
-        for (const auto& frame : frames) {
-          DecodedFrame d{&frame, input.ReadLeft(frame), input.ReadRight(frame)};
-          {
-            StageTimer::Scope t(&timer, "0 odometry front end");
-            in.odometry->PrepareFrame(frame.t_ns, StereoImages{d.left, d.right});
-          }
-          if (!decoded_queue.Push(std::move(d))) break;
-        }
-      } catch (...) {
-        failure.Set(std::current_exception());
-      }
-      decoded_queue.Close();
-    });
-  }
-
-  // Stage A: frames -> odometry -> keyframe selection.
-  BoundedQueue<KeyframeImages> keyframe_queue(kKeyframeQueueCapacity);
-  std::thread stage_a([&] {
-    try {
-      std::optional<std::pair<int64_t, SE3>> last;
-      int last_segment = 0;
-      for (size_t i = 0; i < frames.size(); ++i) {
-        std::optional<DecodedFrame> decoded;
-        if (decode_ahead) {
-          decoded = decoded_queue.Pop();
-          if (!decoded) break;  // the decoder failed or the pipeline is shutting down
-        }
-        const StereoFrameFiles& frame = frames[i];
-        ++frames_done;
-        if (frames_done % 100 == 0) {
-          MD_LOG(kInfo, "progress: frame " << frames_done << "/" << frames.size() << ", "
-                                           << keyframes << " keyframes");
-        }
-        std::optional<OdometrySample> odom;
-        {
-          StageTimer::Scope t(&timer, "0 odometry");
-          const std::optional<StereoImages> images =
-              decoded ? std::optional<StereoImages>(StereoImages{decoded->left, decoded->right})
-                      : std::nullopt;
-          odom = in.odometry->At(frame.t_ns, images ? &*images : nullptr);
-        }
-        if (!odom) continue;
-        // A new odometry segment (reset) always starts with a keyframe: its poses are not
-        // comparable with the previous keyframe's.
-        if (last && odom->segment == last_segment &&
-            !IsNewKeyframe(last->second, last->first, odom->T_odom_body, frame.t_ns,
-                           config.keyframes)) {
-          continue;
-        }
-        last = {frame.t_ns, odom->T_odom_body};
-        last_segment = odom->segment;
-        KeyframeImages kf{&frame, *odom, {}, {}};
-        if (decoded) {
-          kf.left = std::move(decoded->left);
-          kf.right = std::move(decoded->right);
-        }
-        ++keyframes;
-        if (!keyframe_queue.Push(std::move(kf))) break;
-      }
-    } catch (...) {
-      failure.Set(std::current_exception());
-    }
-    decoded_queue.Close();  // unblocks the decoder when this stage stops early
-    keyframe_queue.Close();
-  });
-
-  // Stage A2: keyframe depth, on its own thread so the odometry never waits for SGBM.
-  std::thread stage_depth([&] {
-    try {
-      const StereoDepth stereo(config.stereo);
-      while (auto kf = keyframe_queue.Pop()) {
-        KeyframeDepth out{kf->frame->t_ns, kf->odom, {}};
-        if (kf->left.pixels.empty()) kf->left = input.ReadLeft(*kf->frame);
-        if (kf->right.pixels.empty()) kf->right = input.ReadRight(*kf->frame);
-        {
-          StageTimer::Scope t(&timer, "1 stereo depth");
-          out.raw = stereo.ComputeDepth(kf->left, kf->right, rig);
-        }
-        if (!depth_queue.Push(std::move(out))) break;
-      }
-    } catch (...) {
-      failure.Set(std::current_exception());
-    }
-    keyframe_queue.Close();
-    depth_queue.Close();
-  });
-
-  // Stage C: keyframe folder + upload queue, without the band SGBM cannot match (see
-  // CropLeftBand; the uploader's session camera is KeyframeCamera(), the same crop).
-  std::thread stage_c([&] {
-    try {
-      const int band = StereoDepth(config.stereo).UnmatchedBandFor(rig.left.width);
-      const PinholeCamera out_camera = CropLeftBand(rig.left, band);
-      while (auto f = output_queue.Pop()) {
-        StageTimer::Scope t(&timer, "6 output + upload queue");
-        f->keyframe.depth = CropLeftBand(f->keyframe.depth, band);
-        if (!in.keyframe_dir.empty())
-          AppendKeyframe(in.keyframe_dir, out_camera, config.upload.depth_scale, f->keyframe);
-        if (in.uploader != nullptr) in.uploader->Enqueue(f->keyframe);
-      }
-    } catch (...) {
-      failure.Set(std::current_exception());
-      output_queue.Close();
-    }
-  });
-
-  // Stage B on this thread.
-  try {
-    std::optional<Backend> backend;
-    while (auto kf = depth_queue.Pop()) {
-      if (!backend) {
-        SE3 guess;
-        if (in.initial_T_map_body) {
-          guess = *in.initial_T_map_body;
-        } else if (!seq.groundtruth.empty() && InterpolateAt(seq.groundtruth, kf->t_ns, &guess)) {
-          MD_LOG(kWarn,
-                 "no initial pose given: using the sequence's ground truth at the first keyframe");
-        } else {
-          throw Error(ErrorCode::kInvalidArgument,
-                      "no initial pose given and the sequence has no ground truth to take it from");
-        }
-        backend.emplace(config, in, rig, guess, &timer, &output_queue, &result);
-      }
-      backend->Add(std::move(*kf));
-    }
-    if (backend) backend->Finish();
-  } catch (...) {
-    failure.Set(std::current_exception());
-    depth_queue.Close();
-  }
-  output_queue.Close();
-  keyframe_queue.Close();  // after a backend failure: unblocks stages A and A2
-  decoded_queue.Close();
+  if (run.decode_ahead) stage_decode = std::thread(DecodeStage, std::ref(run));
+  std::thread stage_a(KeyframeStage, std::ref(run));
+  std::thread stage_depth(DepthStage, std::ref(run));
+  std::thread stage_c(OutputStage, std::ref(run));
+  BackendStage(run);
   stage_a.join();
   stage_depth.join();
   if (stage_decode.joinable()) stage_decode.join();
   stage_c.join();
-  if (failure.error) std::rethrow_exception(failure.error);
+  if (run.failure.error) std::rethrow_exception(run.failure.error);
 
-  result.frames = frames_done;
-  result.keyframes = keyframes;
-  result.timing = timer.Summary();
+  PipelineResult result = std::move(run.result);
+  result.frames = run.frames_done;
+  result.keyframes = run.keyframes;
+  result.timing = run.timer.Summary();
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;

@@ -1,12 +1,12 @@
 #include "mapdelta/client/pose_fusion.hpp"
 
 #include <ceres/ceres.h>
-#include <ceres/rotation.h>
 
 #include <Eigen/Cholesky>
 #include <chrono>
 
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/lie.hpp"
 #include "mapdelta/common/registration/se3_tangent.hpp"
 
 namespace mapdelta::client {
@@ -14,15 +14,6 @@ namespace {
 
 template <typename T>
 using Vec3 = Eigen::Matrix<T, 3, 1>;
-
-// Rotation vector of a unit quaternion (Log of SO(3)), differentiable through Ceres jets.
-template <typename T>
-Vec3<T> LogQuat(const Eigen::Quaternion<T>& q) {
-  const T wxyz[4] = {q.w(), q.x(), q.y(), q.z()};
-  Vec3<T> aa;
-  ceres::QuaternionToAngleAxis(wxyz, aa.data());
-  return aa;
-}
 
 // Odometry between keyframes i and j: residual [Log(dR_meas^T R_i^T R_j), dR_meas^T (R_i^T
 // (p_j - p_i) - dt_meas)], the right-perturbation tangent of the predicted relative motion
@@ -37,7 +28,7 @@ struct RelativePoseCost {
     Eigen::Map<const Vec3<T>> pi(pi_), pj(pj_);
     const Eigen::Quaternion<T> dq_inv = dq.conjugate().cast<T>();
     Eigen::Matrix<T, 6, 1> r;
-    r.template head<3>() = LogQuat<T>(dq_inv * (qi.conjugate() * qj));
+    r.template head<3>() = LogQuaternion<T>(dq_inv * (qi.conjugate() * qj));
     r.template tail<3>() = dq_inv * (qi.conjugate() * (pj - pi) - dt.cast<T>());
     Eigen::Map<Eigen::Matrix<T, 6, 1>> res(out);
     res = U.cast<T>() * r;
@@ -56,7 +47,7 @@ struct PosePriorCost {
     Eigen::Map<const Vec3<T>> p(p_);
     const Eigen::Quaternion<T> q_inv = q_meas.conjugate().cast<T>();
     Eigen::Matrix<T, 6, 1> r;
-    r.template head<3>() = LogQuat<T>(q_inv * q);
+    r.template head<3>() = LogQuaternion<T>(q_inv * q);
     r.template tail<3>() = q_inv * (p - p_meas.cast<T>());
     Eigen::Map<Eigen::Matrix<T, 6, 1>> res(out);
     res = U.cast<T>() * r;
@@ -85,7 +76,7 @@ struct RelativeRotationCost {
   bool operator()(const T* qa_, const T* qk_, T* out) const {
     Eigen::Map<const Eigen::Quaternion<T>> qa(qa_), qk(qk_);
     Eigen::Map<Vec3<T>> res(out);
-    res = U.cast<T>() * LogQuat<T>(z.conjugate().cast<T>() * (qa.conjugate() * qk));
+    res = U.cast<T>() * LogQuaternion<T>(z.conjugate().cast<T>() * (qa.conjugate() * qk));
     return true;
   }
 };

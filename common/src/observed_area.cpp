@@ -89,8 +89,8 @@ octomap::OcTreeKey Unpack(uint64_t v) {
 
 // Adds to `free` the voxels each ray from `origin` to an end point passes through (and the end
 // voxel when end_free), in parallel: OctoMap's own OpenMP path does nothing in Debian's build
-// (see DESIGN.md), and computeRayKeys is const. With `stop_before`, a ray ends before the first
-// voxel of that set it meets (its end voxel is then not free either).
+// (see docs/design.md), and computeRayKeys is const. With `stop_before`, a ray ends before the
+// first voxel of that set it meets (its end voxel is then not free either).
 void AddRayKeys(const octomap::OcTree& tree, const octomap::point3d& origin, const PointCloud& ends,
                 bool end_free, const detail::FlatKeySet* stop_before, detail::FlatKeySet* free) {
 #pragma omp parallel if (ends.size() > 4096)

@@ -2,6 +2,7 @@
 // before "vertex" are skipped property by property (lists included), and every read is
 // bounds-checked so a truncated or lying file gives an error, not a crash.
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cctype>
 #include <cstdint>
@@ -147,25 +148,41 @@ void SkipElement(const Element& element, DataCursor* cursor, const std::string& 
   }
 }
 
-}  // namespace
+struct PlyHeader {
+  Format format = Format::kAscii;
+  std::vector<Element> elements;
+};
 
-PointCloud ParsePly(std::string_view bytes, const std::string& path) {
-  HeaderReader reader(bytes, path);
+// One 'property' line of the element being declared.
+Property ParsePropertyLine(const std::vector<std::string>& t, HeaderReader& reader) {
+  Property p;
+  if (t.size() == 3 && ScalarType(t[1], &p.kind, &p.size)) {
+    p.name = t[2];
+  } else if (t.size() == 5 && t[1] == "list" && ScalarType(t[2], &p.count_kind, &p.count_size) &&
+             p.count_kind != 'f' && ScalarType(t[3], &p.kind, &p.size)) {
+    p.is_list = true;
+    p.name = t[4];
+  } else {
+    reader.Fail("expected 'property <type> <name>' or 'property list <int type> <type> <name>'");
+  }
+  return p;
+}
+
+// The header up to end_header; the reader's offset is then where the data starts.
+PlyHeader ParseHeader(HeaderReader& reader, const std::string& path) {
   std::string_view line;
   if (!reader.NextLine(&line) || line != "ply") {
     throw Error(ErrorCode::kParse, path + ": not a PLY file (first line must be 'ply')");
   }
   std::optional<Format> format;
-  std::vector<Element> elements;
-  bool ended = false;
-  while (!ended) {
+  PlyHeader header;
+  while (true) {
     if (!reader.NextLine(&line))
       throw Error(ErrorCode::kParse, path + ": PLY header has no end_header");
     const auto t = Tokens(line);
     if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
-    if (t[0] == "end_header") {
-      ended = true;
-    } else if (t[0] == "format") {
+    if (t[0] == "end_header") break;
+    if (t[0] == "format") {
       if (t.size() != 3 || t[2] != "1.0") reader.Fail("expected 'format <type> 1.0'");
       if (t[1] == "ascii")
         format = Format::kAscii;
@@ -183,34 +200,24 @@ PointCloud ParsePly(std::string_view bytes, const std::string& path) {
       }
       e.name = t[1];
       e.count = std::stoull(t[2]);
-      elements.push_back(e);
+      header.elements.push_back(e);
     } else if (t[0] == "property") {
-      if (elements.empty()) reader.Fail("property before any element");
-      Property p;
-      if (t.size() == 3 && ScalarType(t[1], &p.kind, &p.size)) {
-        p.name = t[2];
-      } else if (t.size() == 5 && t[1] == "list" &&
-                 ScalarType(t[2], &p.count_kind, &p.count_size) && p.count_kind != 'f' &&
-                 ScalarType(t[3], &p.kind, &p.size)) {
-        p.is_list = true;
-        p.name = t[4];
-      } else {
-        reader.Fail(
-            "expected 'property <type> <name>' or 'property list <int type> <type> <name>'");
-      }
-      elements.back().properties.push_back(p);
+      if (header.elements.empty()) reader.Fail("property before any element");
+      header.elements.back().properties.push_back(ParsePropertyLine(t, reader));
     } else {
       reader.Fail("unknown PLY header keyword '" + t[0].substr(0, 32) + "'");
     }
   }
   if (!format) throw Error(ErrorCode::kParse, path + ": PLY header has no format line");
-  auto vertex = std::find_if(elements.begin(), elements.end(),
-                             [](const Element& e) { return e.name == "vertex"; });
-  if (vertex == elements.end())
-    throw Error(ErrorCode::kParse, path + ": PLY header has no 'element vertex'");
-  int xyz[3] = {-1, -1, -1};
-  for (size_t i = 0; i < vertex->properties.size(); ++i) {
-    const auto& p = vertex->properties[i];
+  header.format = *format;
+  return header;
+}
+
+// Indices of the vertex element's scalar x, y and z properties; throws when one is missing.
+std::array<int, 3> XyzProperties(const Element& vertex, const std::string& path) {
+  std::array<int, 3> xyz = {-1, -1, -1};
+  for (size_t i = 0; i < vertex.properties.size(); ++i) {
+    const auto& p = vertex.properties[i];
     for (int axis = 0; axis < 3; ++axis) {
       if (!p.is_list && p.name == std::string(1, static_cast<char>('x' + axis)))
         xyz[axis] = static_cast<int>(i);
@@ -220,33 +227,36 @@ PointCloud ParsePly(std::string_view bytes, const std::string& path) {
     throw Error(ErrorCode::kParse,
                 path + ": PLY vertex element lacks scalar x, y and z properties");
   }
+  return xyz;
+}
 
-  DataCursor cursor(bytes.substr(std::min(reader.offset(), bytes.size())), *format, path);
-  for (auto it = elements.begin(); it != vertex; ++it) SkipElement(*it, &cursor, path);
+// The vertices' positions (non-finite ones dropped), read from the cursor at the first vertex.
+PointCloud ReadVertices(const Element& vertex, const std::array<int, 3>& xyz, Format format,
+                        DataCursor* cursor, const std::string& path) {
   // Each vertex needs at least one byte per property (binary) or two characters (ascii).
-  const uint64_t min_bytes = vertex->properties.size() * (*format == Format::kAscii ? 2 : 1);
-  if (vertex->count > cursor.remaining() / std::max<uint64_t>(min_bytes, 1) + 1) {
-    throw Error(ErrorCode::kParse, path + ": header declares " + std::to_string(vertex->count) +
+  const uint64_t min_bytes = vertex.properties.size() * (format == Format::kAscii ? 2 : 1);
+  if (vertex.count > cursor->remaining() / std::max<uint64_t>(min_bytes, 1) + 1) {
+    throw Error(ErrorCode::kParse, path + ": header declares " + std::to_string(vertex.count) +
                                        " vertices but the file is too short for them");
   }
   PointCloud cloud;
-  cloud.reserve(vertex->count);
+  cloud.reserve(vertex.count);
   size_t dropped = 0;
   double v[3] = {0, 0, 0};
-  for (uint64_t i = 0; i < vertex->count; ++i) {
-    cursor.element_index = i;
-    for (size_t k = 0; k < vertex->properties.size(); ++k) {
-      const auto& p = vertex->properties[k];
+  for (uint64_t i = 0; i < vertex.count; ++i) {
+    cursor->element_index = i;
+    for (size_t k = 0; k < vertex.properties.size(); ++k) {
+      const auto& p = vertex.properties[k];
       double value = 0;
       if (p.is_list) {
-        const double n = cursor.Scalar(p.count_kind, p.count_size);
-        if (!(n >= 0) || n > static_cast<double>(cursor.remaining())) {
+        const double n = cursor->Scalar(p.count_kind, p.count_size);
+        if (!(n >= 0) || n > static_cast<double>(cursor->remaining())) {
           throw Error(ErrorCode::kParse,
                       path + ": vertex " + std::to_string(i) + " has a list of invalid length");
         }
-        for (uint64_t j = 0; j < static_cast<uint64_t>(n); ++j) cursor.Scalar(p.kind, p.size);
+        for (uint64_t j = 0; j < static_cast<uint64_t>(n); ++j) cursor->Scalar(p.kind, p.size);
       } else {
-        value = cursor.Scalar(p.kind, p.size);
+        value = cursor->Scalar(p.kind, p.size);
       }
       for (int axis = 0; axis < 3; ++axis) {
         if (xyz[axis] == static_cast<int>(k)) v[axis] = value;
@@ -260,6 +270,21 @@ PointCloud ParsePly(std::string_view bytes, const std::string& path) {
   }
   if (dropped > 0) MD_LOG(kDebug, path << ": dropped " << dropped << " non-finite points");
   return cloud;
+}
+
+}  // namespace
+
+PointCloud ParsePly(std::string_view bytes, const std::string& path) {
+  HeaderReader reader(bytes, path);
+  const PlyHeader header = ParseHeader(reader, path);
+  auto vertex = std::find_if(header.elements.begin(), header.elements.end(),
+                             [](const Element& e) { return e.name == "vertex"; });
+  if (vertex == header.elements.end())
+    throw Error(ErrorCode::kParse, path + ": PLY header has no 'element vertex'");
+  const std::array<int, 3> xyz = XyzProperties(*vertex, path);
+  DataCursor cursor(bytes.substr(std::min(reader.offset(), bytes.size())), header.format, path);
+  for (auto it = header.elements.begin(); it != vertex; ++it) SkipElement(*it, &cursor, path);
+  return ReadVertices(*vertex, xyz, header.format, &cursor, path);
 }
 
 }  // namespace mapdelta::detail

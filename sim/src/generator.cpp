@@ -122,10 +122,9 @@ Scene RenderScene(const SequencePlan& plan) {
   return scene;
 }
 
-void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::string& name,
-                      const std::string& out_dir, const ProgressFn& progress, size_t max_frames) {
-  const SequencePlan plan = PlanSequence(c, scenes, name);
-  const Scene scene = RenderScene(plan);
+namespace {
+
+nlohmann::json MirrorBoxes(const Scene& scene) {
   nlohmann::json mirrors = nlohmann::json::array();
   for (const Object& m : scene.objects) {
     if (m.kind != "mirror") continue;
@@ -134,15 +133,14 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
                        {"min", {b.min.x(), b.min.y(), b.min.z()}},
                        {"max", {b.max.x(), b.max.y(), b.max.z()}}});
   }
-  const EmbreeCaster caster(scene);
-  const NoiseParams noise = NoiseFor(c.noise);
+  return mirrors;
+}
 
-  const fs::path mav = fs::path(out_dir) / "sequences" / name / "mav0";
+// The folders of mav0 and the cameras' sensor.yaml files.
+void WriteCameraFiles(const SimConfig& c, const SensorRig& rig, const fs::path& mav) {
   for (const char* d : {"cam0/data", "cam1/data", "imu0", "state_groundtruth_estimate0"})
     MakeDirs(mav / d);
   if (c.write_depth) MakeDirs(mav / "depth0" / "data");
-
-  const SensorRig rig = MakeSensorRig(c);
   const SimCamera& cam0 = rig.cam[0];
   auto radtan = [](const SimCamera& sc) {
     return std::array<double, 4>{sc.distortion.k1, sc.distortion.k2, sc.distortion.p1,
@@ -157,21 +155,21 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
                     "mapdelta-sim ground-truth depth of cam0 (16-bit PNG, millimetres, 0 = none)",
                     radtan(cam0));
   }
+}
+
+// Renders and writes both cameras (and the ground-truth depth) at every stamp, in parallel.
+void WriteImages(const SimConfig& c, const SequencePlan& plan, const Scene& scene,
+                 const SensorRig& rig, const std::vector<int64_t>& stamps, uint64_t seq_key,
+                 const fs::path& mav, const std::string& name, const ProgressFn& progress) {
+  const EmbreeCaster caster(scene);
+  const NoiseParams noise = NoiseFor(c.noise);
   // Distorted lenses: every pixel's ray once per sequence (undistortion is iterative).
   std::vector<Eigen::Vector3f> rays[2];
   for (int ci = 0; ci < 2; ++ci) {
     if (!rig.cam[ci].distortion.IsZero()) rays[ci] = PixelRays(rig.cam[ci]);
   }
-
-  // Images.
-  size_t frames = static_cast<size_t>(std::floor(plan.duration_s * c.cam_rate_hz + 1e-9)) + 1;
-  if (max_frames > 0) frames = std::min(frames, max_frames);
-  std::vector<int64_t> stamps(frames);
-  for (size_t k = 0; k < frames; ++k)
-    stamps[k] = SampleTimeNs(kT0Ns, static_cast<int64_t>(k), c.cam_rate_hz);
-  const uint64_t seq_key = SequenceNoiseKey(c.seed, name);
   const RenderOptions ropt{c.shadows, 3};
-  ParallelFor(frames, ThreadCount(c), name + " images", progress, [&](size_t k) {
+  ParallelFor(stamps.size(), ThreadCount(c), name + " images", progress, [&](size_t k) {
     const double t = static_cast<double>(stamps[k] - kT0Ns) * 1e-9;
     const SE3 T_map_body = plan.trajectory.Evaluate(t).T_map_body * rig.T_vehicle_body;
     const SE3 poses[2] = {T_map_body * rig.cam[0].T_body_cam, T_map_body * rig.cam[1].T_body_cam};
@@ -199,38 +197,35 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
   WriteImageCsv((mav / "cam0/data.csv").string(), stamps);
   WriteImageCsv((mav / "cam1/data.csv").string(), stamps);
   if (c.write_depth) WriteImageCsv((mav / "depth0/data.csv").string(), stamps);
+}
 
-  // IMU and ground truth over the same time span as the images.
-  const double span = static_cast<double>(stamps.back() - kT0Ns) * 1e-9;
-  std::vector<ImuSample> imu;
+// IMU samples over [t0, t0 + span_s] in the body (IMU) axes, with the configured noise.
+std::vector<ImuSample> SimulateBodyImu(const SimConfig& c, const SequencePlan& plan,
+                                       const SensorRig& rig, double span_s, uint64_t seq_key) {
+  const NoiseParams noise = NoiseFor(c.noise);
   if (rig.T_vehicle_body.linear().isIdentity(0.0)) {
-    imu = SimulateImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span, noise, seq_key);
-  } else {
-    // Clean samples turned into the body (IMU) axes and rounded as imu0/data.csv prints them,
-    // then the usual noise: `renoise` on a clean dataset of this rig gives the same samples.
-    const Eigen::Matrix3d R_body_vehicle = rig.T_vehicle_body.linear().transpose();
-    auto as_written = [](const Eigen::Vector3d& v) {
-      Eigen::Vector3d out;
-      for (int i = 0; i < 3; ++i) out[i] = std::strtod(FormatCsvNumber(v[i]).c_str(), nullptr);
-      return out;
-    };
-    std::vector<ImuSample> clean = SimulateCleanImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span);
-    for (ImuSample& s : clean) {
-      s.gyro = as_written(R_body_vehicle * s.gyro);
-      s.accel = as_written(R_body_vehicle * s.accel);
-    }
-    imu = AddImuNoise(clean, c.imu_rate_hz, noise, seq_key);
+    return SimulateImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span_s, noise, seq_key);
   }
-  WriteImuYaml((mav / "imu0/sensor.yaml").string(), c.imu_rate_hz, noise);
-  WriteImuCsv((mav / "imu0/data.csv").string(), imu);
-  WriteGroundTruthCsv((mav / "state_groundtruth_estimate0/data.csv").string(), plan.trajectory, imu,
-                      kT0Ns, rig.T_vehicle_body);
+  // Clean samples turned into the body (IMU) axes and rounded as imu0/data.csv prints them,
+  // then the usual noise: `renoise` on a clean dataset of this rig gives the same samples.
+  const Eigen::Matrix3d R_body_vehicle = rig.T_vehicle_body.linear().transpose();
+  auto as_written = [](const Eigen::Vector3d& v) {
+    Eigen::Vector3d out;
+    for (int i = 0; i < 3; ++i) out[i] = std::strtod(FormatCsvNumber(v[i]).c_str(), nullptr);
+    return out;
+  };
+  std::vector<ImuSample> clean = SimulateCleanImu(plan.trajectory, kT0Ns, c.imu_rate_hz, span_s);
+  for (ImuSample& s : clean) {
+    s.gyro = as_written(R_body_vehicle * s.gyro);
+    s.accel = as_written(R_body_vehicle * s.accel);
+  }
+  return AddImuNoise(clean, c.imu_rate_hz, noise, seq_key);
+}
 
-  double max_rate = 0;
-  for (const ImuSample& s : imu) {
-    max_rate =
-        std::max(max_rate, std::abs((rig.T_vehicle_body.linear() * (s.gyro - s.bias_gyro)).z()));
-  }
+// info.json: what the sequence is, for the tools and the reproduction's report.
+nlohmann::json SequenceInfo(const SimConfig& c, const SequencePlan& plan, const SensorRig& rig,
+                            const std::string& name, double span_s, size_t frames,
+                            double max_yaw_rate, const nlohmann::json& mirrors) {
   nlohmann::json changes = nlohmann::json::array();
   for (const Change& ch : plan.scene->changes)
     changes.push_back({{"type", ch.type}, {"id", ch.object.id}});
@@ -244,7 +239,7 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
       {"preset", c.preset},
       {"height_m", plan.height},
       {"length_m", plan.length_m},
-      {"duration_s", span},
+      {"duration_s", span_s},
       {"t0_ns", kT0Ns},
       {"cam_rate_hz", c.cam_rate_hz},
       {"imu_rate_hz", c.imu_rate_hz},
@@ -253,17 +248,51 @@ void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::strin
        rig.name == "ideal"
            ? c.baseline
            : (rig.cam[0].T_body_cam.inverse() * rig.cam[1].T_body_cam).translation().norm()},
-      {"image_noise_sigma", noise.image_sigma},
-      {"max_yaw_rate_rad_s", max_rate},
+      {"image_noise_sigma", NoiseFor(c.noise).image_sigma},
+      {"max_yaw_rate_rad_s", max_yaw_rate},
       {"changes", changes},
       {"mirrors", mirrors},
       {"ground_truth_cloud", "scenes/" + plan.scene->scene.name + "/cloud.pcd"}};
   if (rig.name != "ideal") info["rig"] = rig.name;  // absent: the ideal rig (older datasets)
-  std::ofstream out(fs::path(out_dir) / "sequences" / name / "info.json");
-  out << info.dump(1) << '\n';
-  if (!out)
-    throw Error(ErrorCode::kIo,
-                (fs::path(out_dir) / "sequences" / name / "info.json").string() + ": write failed");
+  return info;
+}
+
+}  // namespace
+
+void GenerateSequence(const SimConfig& c, const Scenes& scenes, const std::string& name,
+                      const std::string& out_dir, const ProgressFn& progress, size_t max_frames) {
+  const SequencePlan plan = PlanSequence(c, scenes, name);
+  const Scene scene = RenderScene(plan);
+  const fs::path mav = fs::path(out_dir) / "sequences" / name / "mav0";
+  const SensorRig rig = MakeSensorRig(c);
+  WriteCameraFiles(c, rig, mav);
+
+  size_t frames = static_cast<size_t>(std::floor(plan.duration_s * c.cam_rate_hz + 1e-9)) + 1;
+  if (max_frames > 0) frames = std::min(frames, max_frames);
+  std::vector<int64_t> stamps(frames);
+  for (size_t k = 0; k < frames; ++k)
+    stamps[k] = SampleTimeNs(kT0Ns, static_cast<int64_t>(k), c.cam_rate_hz);
+  const uint64_t seq_key = SequenceNoiseKey(c.seed, name);
+  WriteImages(c, plan, scene, rig, stamps, seq_key, mav, name, progress);
+
+  // IMU and ground truth over the same time span as the images.
+  const double span = static_cast<double>(stamps.back() - kT0Ns) * 1e-9;
+  const std::vector<ImuSample> imu = SimulateBodyImu(c, plan, rig, span, seq_key);
+  WriteImuYaml((mav / "imu0/sensor.yaml").string(), c.imu_rate_hz, NoiseFor(c.noise));
+  WriteImuCsv((mav / "imu0/data.csv").string(), imu);
+  WriteGroundTruthCsv((mav / "state_groundtruth_estimate0/data.csv").string(), plan.trajectory, imu,
+                      kT0Ns, rig.T_vehicle_body);
+
+  double max_rate = 0;
+  for (const ImuSample& s : imu) {
+    max_rate =
+        std::max(max_rate, std::abs((rig.T_vehicle_body.linear() * (s.gyro - s.bias_gyro)).z()));
+  }
+  const fs::path info_path = fs::path(out_dir) / "sequences" / name / "info.json";
+  std::ofstream out(info_path);
+  out << SequenceInfo(c, plan, rig, name, span, frames, max_rate, MirrorBoxes(scene)).dump(1)
+      << '\n';
+  if (!out) throw Error(ErrorCode::kIo, info_path.string() + ": write failed");
   MD_LOG(kInfo, "sequence " << name << ": " << frames << " stereo frames, " << imu.size()
                             << " IMU samples, " << plan.length_m << " m, max yaw rate " << max_rate
                             << " rad/s");

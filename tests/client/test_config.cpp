@@ -1,4 +1,4 @@
-// Client configuration: defaults from DESIGN.md, every problem reported at once, round trip.
+// Client configuration: defaults from docs/design.md, every problem reported at once, round trip.
 #include <gtest/gtest.h>
 
 #include "mapdelta/client/config.hpp"

@@ -71,7 +71,7 @@ double JacobianError(const ceres::CostFunction& cost, Blocks blocks) {
 
 std::vector<double> RandomPose(std::mt19937& rng, double spread) {
   std::normal_distribution<double> n(0, 1);
-  SE3 T = MakeSE3(ExpQ(Eigen::Vector3d(n(rng), n(rng), n(rng)) * 0.5),
+  SE3 T = MakeSE3(ExpQuaternion(Eigen::Vector3d(n(rng), n(rng), n(rng)) * 0.5),
                   Eigen::Vector3d(n(rng), n(rng), n(rng)) * spread);
   std::vector<double> p(7);
   PoseToArray(T, p.data());
@@ -104,7 +104,7 @@ ImuPreintegration SomePreintegration() {
 
 CameraExtrinsics Cam(const Eigen::Vector3d& rot, const Eigen::Vector3d& t) {
   CameraExtrinsics c;
-  c.q_body_cam = ExpQ(rot);
+  c.q_body_cam = ExpQuaternion(rot);
   c.t_body_cam = t;
   return c;
 }

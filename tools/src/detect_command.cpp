@@ -24,7 +24,7 @@ const char* const kDetectDescription =
     "OUT/global.pcd, OUT/observed.bt, OUT/new.pcd, OUT/removed.pcd (or .ply / .las with "
     "--format),\n"
     "OUT/summary.json.\n"
-    "Paper names, defaults from DESIGN.md.";
+    "Paper names, defaults from docs/design.md.";
 
 namespace {
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mapdelta/common/lie.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/vio/estimator.hpp"
 #include "mapdelta/vio/gauge.hpp"
@@ -10,6 +11,12 @@
 namespace mapdelta::vio {
 
 namespace {
+
+// The window's Hessian reduced onto two poses still has its gauge (position and yaw): its
+// directions, with eigenvalues at numerical-noise level relative to the largest, stay out of
+// the covariance.
+constexpr EigenvalueCutoff kWindowCovarianceCutoff{0, 1e-10};
+
 PoseManifold& SharedPoseManifold() {
   static PoseManifold manifold;
   return manifold;
@@ -219,11 +226,7 @@ std::optional<Matrix6d> SlidingWindowEstimator::RelativeCovariance(const Frame& 
   }
   if (!m.Marginalize() || m.kept_blocks().size() != 2) return std::nullopt;
   // 2. Covariance of the two poses (pseudo-inverse: the window has gauge freedom left).
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (m.H() + m.H().transpose()));
-  const double max_ev = es.eigenvalues().maxCoeff();
-  const Eigen::VectorXd inv =
-      (es.eigenvalues().array() > 1e-10 * max_ev).select(es.eigenvalues().array().inverse(), 0.0);
-  const Eigen::MatrixXd cov = es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
+  const Eigen::MatrixXd cov = PseudoInverse(m.H(), kWindowCovarianceCutoff);
   // 3. Propagate through T_a_b = T_w_a^-1 T_w_b, in the documented convention
   //    (tangent [rotation, translation], right perturbation T_a_b * Exp(xi)), numerically.
   const bool a_first = m.kept_blocks()[0] == a.pose;
@@ -245,7 +248,7 @@ std::optional<Matrix6d> SlidingWindowEstimator::RelativeCovariance(const Frame& 
     else
       SharedPoseManifold().Plus(xb, delta, pb);
     const SE3 dT = T0.inverse() * (ArrayToPose(pa).inverse() * ArrayToPose(pb));
-    J.block<3, 1>(0, k) = LogQ(Eigen::Quaterniond(dT.linear())) / h;
+    J.block<3, 1>(0, k) = LogQuaternion(Eigen::Quaterniond(dT.linear()).normalized()) / h;
     J.block<3, 1>(3, k) = dT.translation() / h;
   }
   const Matrix6d rel = J * cov * J.transpose();

@@ -19,7 +19,7 @@ bool PoseManifold::Plus(const double* x, const double* delta, double* out) const
   Eigen::Map<const Eigen::Vector3d> p(x), dp(delta), dtheta(delta + 3);
   Eigen::Map<const Eigen::Quaterniond> q(x + 3);
   Eigen::Map<Eigen::Vector3d>{out} = p + dp;
-  Eigen::Map<Eigen::Quaterniond>{out + 3} = (q * ExpQ(dtheta)).normalized();
+  Eigen::Map<Eigen::Quaterniond>{out + 3} = (q * ExpQuaternion(dtheta)).normalized();
   return true;
 }
 
@@ -35,7 +35,7 @@ bool PoseManifold::Minus(const double* y, const double* x, double* out) const {
   Eigen::Map<const Eigen::Quaterniond> qy(y + 3), qx(x + 3);
   Eigen::Map<Eigen::Vector3d>{out} =
       Eigen::Map<const Eigen::Vector3d>(y) - Eigen::Map<const Eigen::Vector3d>(x);
-  Eigen::Map<Eigen::Vector3d>{out + 3} = LogQ(qx.conjugate() * qy);
+  Eigen::Map<Eigen::Vector3d>{out + 3} = LogQuaternion((qx.conjugate() * qy).normalized());
   return true;
 }
 

@@ -4,46 +4,6 @@
 
 namespace mapdelta::vio {
 
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return S;
-}
-
-Eigen::Matrix3d RightJacobianSO3(const Eigen::Vector3d& phi) {
-  const double theta = phi.norm();
-  const Eigen::Matrix3d W = Skew(phi);
-  if (theta < 1e-5) return Eigen::Matrix3d::Identity() - 0.5 * W + W * W / 6.0;
-  const double t2 = theta * theta;
-  return Eigen::Matrix3d::Identity() - (1.0 - std::cos(theta)) / t2 * W +
-         (theta - std::sin(theta)) / (t2 * theta) * W * W;
-}
-
-Eigen::Matrix3d RightJacobianInvSO3(const Eigen::Vector3d& phi) {
-  const double theta = phi.norm();
-  const Eigen::Matrix3d W = Skew(phi);
-  if (theta < 1e-5) return Eigen::Matrix3d::Identity() + 0.5 * W + W * W / 12.0;
-  const double t2 = theta * theta;
-  return Eigen::Matrix3d::Identity() + 0.5 * W +
-         (1.0 / t2 - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta))) * W * W;
-}
-
-Eigen::Quaterniond ExpQ(const Eigen::Vector3d& phi) {
-  const double theta = phi.norm();
-  if (theta < 1e-8) {
-    return Eigen::Quaterniond(1.0, 0.5 * phi.x(), 0.5 * phi.y(), 0.5 * phi.z()).normalized();
-  }
-  return Eigen::Quaterniond(Eigen::AngleAxisd(theta, phi / theta));
-}
-
-Eigen::Vector3d LogQ(const Eigen::Quaterniond& q_in) {
-  Eigen::Quaterniond q = q_in.normalized();
-  if (q.w() < 0) q.coeffs() = -q.coeffs();
-  const double s = q.vec().norm();
-  if (s < 1e-10) return 2.0 * q.vec() / q.w();
-  return 2.0 * std::atan2(s, q.w()) / s * q.vec();
-}
-
 DiscreteImuNoise DiscreteImuNoise::FromDensities(const ImuNoiseDensities& d, double dt_s) {
   DiscreteImuNoise n;
   // White noise: a density sigma_c [unit/sqrt(Hz)] sampled at 1/dt has variance sigma_c^2/dt.
@@ -85,7 +45,7 @@ void ImuPreintegration::Step(const ImuSample& a, const ImuSample& b) {
   const Eigen::Matrix3d Jr = RightJacobianSO3(phi);
   // The averaged acceleration is rotated by the mid-step rotation R * Exp(phi / 2): a
   // start-of-step rotation leaves a first-order error of |w| dt |a| per step.
-  const Eigen::Matrix3d E_half = ExpQ(0.5 * phi).toRotationMatrix();
+  const Eigen::Matrix3d E_half = ExpQuaternion(0.5 * phi).toRotationMatrix();
   const Eigen::Matrix3d R_half = R * E_half;
   const Eigen::Matrix3d RA = R_half * Skew(acc);
   const Eigen::Matrix3d RA_theta = RA * E_half.transpose();                   // d/d(dtheta)
@@ -93,7 +53,7 @@ void ImuPreintegration::Step(const ImuSample& a, const ImuSample& b) {
 
   // 1. Linearized error-state transition F and noise input G (see header for the order).
   Matrix15d F = Matrix15d::Identity();
-  F.block<3, 3>(0, 0) = ExpQ(phi).toRotationMatrix().transpose();
+  F.block<3, 3>(0, 0) = ExpQuaternion(phi).toRotationMatrix().transpose();
   F.block<3, 3>(0, 9) = -Jr * dt;
   F.block<3, 3>(3, 0) = -RA_theta * dt;
   F.block<3, 3>(3, 9) = RA_bg * dt;
@@ -120,7 +80,7 @@ void ImuPreintegration::Step(const ImuSample& a, const ImuSample& b) {
   // 3. Deltas, position first because it uses the old velocity and rotation.
   dp_ += dv_ * dt + 0.5 * R_half * acc * dt * dt;
   dv_ += R_half * acc * dt;
-  dR_ = (dR_ * ExpQ(phi)).normalized();
+  dR_ = (dR_ * ExpQuaternion(phi)).normalized();
   dt_s_ += dt;
 }
 
@@ -136,7 +96,7 @@ void ImuPreintegration::Append(const ImuPreintegration& next) {
 }
 
 Eigen::Quaterniond ImuPreintegration::CorrectedDR(const Eigen::Vector3d& bg) const {
-  return (dR_ * ExpQ(J_R_bg() * (bg - bg0_))).normalized();
+  return (dR_ * ExpQuaternion(J_R_bg() * (bg - bg0_))).normalized();
 }
 
 Eigen::Vector3d ImuPreintegration::CorrectedDv(const Eigen::Vector3d& bg,

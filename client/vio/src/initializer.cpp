@@ -140,7 +140,7 @@ bool Initializer::Align(std::vector<InitFrame>* frames_ptr) const {
                                   frames[k].state.T_world_body.linear());
     const Eigen::Matrix3d J = pre.J_R_bg();
     A += J.transpose() * J;
-    b += J.transpose() * LogQ(pre.dR().conjugate() * R_ij);
+    b += J.transpose() * LogQuaternion((pre.dR().conjugate() * R_ij).normalized());
   }
   const Eigen::Vector3d bg = frames[1].pre.bg0() + A.ldlt().solve(b);
   if (!bg.allFinite() || bg.norm() > config_.max_gyro_bias) return false;

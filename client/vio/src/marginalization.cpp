@@ -4,18 +4,15 @@
 #include <algorithm>
 #include <map>
 
+#include "mapdelta/common/lie.hpp"
 #include "mapdelta/vio/factors.hpp"
 
 namespace mapdelta::vio {
 namespace {
 
-// Pseudo-inverse of a symmetric PSD matrix, dropping eigenvalues below `eps`.
-Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& A, double eps = 1e-8) {
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (A + A.transpose()));
-  const Eigen::VectorXd inv =
-      (es.eigenvalues().array() > eps).select(es.eigenvalues().array().inverse(), 0.0);
-  return es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
-}
+// Dropped states' Hessian: directions with curvature at or below this are unobserved (the
+// window's gauge, a landmark seen once) and stay out of the inverse.
+constexpr EigenvalueCutoff kDroppedStatesCutoff{1e-8, 0};
 
 }  // namespace
 
@@ -24,39 +21,40 @@ void Marginalizer::AddResidualBlock(ceres::CostFunction* cost, const ceres::Loss
   blocks_.push_back({std::unique_ptr<ceres::CostFunction>(cost), loss, std::move(params)});
 }
 
-bool Marginalizer::Marginalize() {
-  // 1. Order the tangent coordinates: dropped blocks first, then kept ones.
-  std::map<const double*, int> size_of;
+Marginalizer::TangentLayout Marginalizer::LayOut() {
+  TangentLayout layout;
   for (const auto& b : blocks_) {
     const auto& sizes = b.cost->parameter_block_sizes();
-    for (size_t k = 0; k < b.params.size(); ++k) size_of[b.params[k]] = sizes[k];
+    for (size_t k = 0; k < b.params.size(); ++k) layout.ambient_size[b.params[k]] = sizes[k];
   }
-  std::map<const double*, int> offset;
-  int m = 0;
-  for (const auto& [block, size] : size_of) {
+  int next = 0;
+  for (const auto& [block, size] : layout.ambient_size) {
     if (dropped_.count(block)) {
-      offset[block] = m;
-      m += TangentSizeOf(size);
+      layout.offset[block] = next;
+      next += TangentSizeOf(size);
     }
   }
-  int n = m;
+  layout.dropped = next;
   kept_.clear();
   kept_sizes_.clear();
   x0_.clear();
-  for (const auto& [block, size] : size_of) {
+  for (const auto& [block, size] : layout.ambient_size) {
     if (dropped_.count(block)) continue;
-    offset[block] = n;
-    n += TangentSizeOf(size);
+    layout.offset[block] = next;
+    next += TangentSizeOf(size);
     kept_.push_back(const_cast<double*>(block));
     kept_sizes_.push_back(size);
     x0_.push_back(Eigen::Map<const Eigen::VectorXd>(block, size));
   }
-  if (kept_.empty()) return false;
+  layout.total = next;
+  return layout;
+}
 
-  // 2. Accumulate H = J^T J and b = J^T r in tangent coordinates, robustified by the
-  //    loss's first derivative (iteratively reweighted least squares weight).
-  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+// Robustified by the loss's first derivative (iteratively reweighted least squares weight).
+void Marginalizer::Linearize(const TangentLayout& layout, Eigen::MatrixXd* H,
+                             Eigen::VectorXd* g) const {
+  *H = Eigen::MatrixXd::Zero(layout.total, layout.total);
+  *g = Eigen::VectorXd::Zero(layout.total);
   for (const auto& b : blocks_) {
     const auto& sizes = b.cost->parameter_block_sizes();
     const int nr = b.cost->num_residuals();
@@ -81,24 +79,29 @@ bool Marginalizer::Marginalize() {
       Jt[k] = w * ToTangentJacobian(b.params[k], sizes[k], Ja[k]);
     }
     for (size_t a = 0; a < b.params.size(); ++a) {
-      const int oa = offset[b.params[a]];
-      g.segment(oa, Jt[a].cols()) += Jt[a].transpose() * r;
+      const int oa = layout.offset.at(b.params[a]);
+      g->segment(oa, Jt[a].cols()) += Jt[a].transpose() * r;
       for (size_t c = 0; c < b.params.size(); ++c) {
-        const int oc = offset[b.params[c]];
-        H.block(oa, oc, Jt[a].cols(), Jt[c].cols()) += Jt[a].transpose() * Jt[c];
+        const int oc = layout.offset.at(b.params[c]);
+        H->block(oa, oc, Jt[a].cols(), Jt[c].cols()) += Jt[a].transpose() * Jt[c];
       }
     }
   }
+}
 
-  // 3. Schur complement onto the kept coordinates. Dropped blocks of size 1 (landmark inverse
-  //    depths, which share no factor with each other) form a diagonal block: eliminate them
-  //    first in O(n^2) each, then the remaining dropped states densely.
+// Dropped blocks of size 1 (landmark inverse depths, which share no factor with each other)
+// form a diagonal block: eliminated first in O(n^2) each, then the remaining dropped states
+// densely.
+void Marginalizer::ReduceOntoKept(const TangentLayout& layout, Eigen::MatrixXd H,
+                                  Eigen::VectorXd g) {
+  const int n = layout.total, m = layout.dropped;
   std::vector<int> points, states;
-  for (const auto& [block, size] : size_of) {
+  for (const auto& [block, size] : layout.ambient_size) {
     if (!dropped_.count(block)) continue;
-    (size == 1 ? points : states).push_back(offset[block]);
+    const int offset = layout.offset.at(block);
+    (size == 1 ? points : states).push_back(offset);
     if (size != 1) {
-      for (int d = 1; d < TangentSizeOf(size); ++d) states.push_back(offset[block] + d);
+      for (int d = 1; d < TangentSizeOf(size); ++d) states.push_back(offset + d);
     }
   }
   for (int p : points) {
@@ -120,22 +123,33 @@ bool Marginalizer::Marginalize() {
   }
   const int k = n - m;
   const int ms = static_cast<int>(states.size());
-  if (ms > 0) {
-    Eigen::MatrixXd Hss(ms, ms), Hks(k, ms);
-    Eigen::VectorXd gs(ms);
-    for (int a = 0; a < ms; ++a) {
-      gs[a] = g[states[a]];
-      Hks.col(a) = H.block(m, states[a], k, 1);
-      for (int c = 0; c < ms; ++c) Hss(a, c) = H(states[a], states[c]);
-    }
-    const Eigen::MatrixXd Hss_inv = PseudoInverse(Hss);
-    H_ = H.bottomRightCorner(k, k) - Hks * Hss_inv * Hks.transpose();
-    b_ = g.tail(k) - Hks * Hss_inv * gs;
-  } else {
+  if (ms == 0) {
     H_ = H.bottomRightCorner(k, k);
     b_ = g.tail(k);
+    return;
   }
+  Eigen::MatrixXd Hss(ms, ms), Hks(k, ms);
+  Eigen::VectorXd gs(ms);
+  for (int a = 0; a < ms; ++a) {
+    gs[a] = g[states[a]];
+    Hks.col(a) = H.block(m, states[a], k, 1);
+    for (int c = 0; c < ms; ++c) Hss(a, c) = H(states[a], states[c]);
+  }
+  const Eigen::MatrixXd Hss_inv = PseudoInverse(Hss, kDroppedStatesCutoff);
+  H_ = H.bottomRightCorner(k, k) - Hks * Hss_inv * Hks.transpose();
+  b_ = g.tail(k) - Hks * Hss_inv * gs;
+}
 
+bool Marginalizer::Marginalize() {
+  // 1. Order the tangent coordinates: dropped blocks first, then kept ones.
+  const TangentLayout layout = LayOut();
+  if (kept_.empty()) return false;
+  // 2. The Gauss-Newton system of every block at the current estimate.
+  Eigen::MatrixXd H;
+  Eigen::VectorXd g;
+  Linearize(layout, &H, &g);
+  // 3. Schur complement onto the kept coordinates, factored as the prior's J and r.
+  ReduceOntoKept(layout, std::move(H), std::move(g));
   Factor();
   blocks_.clear();
   return true;
@@ -145,7 +159,7 @@ void Marginalizer::RemoveDirections(const Eigen::MatrixXd& directions) {
   const Eigen::MatrixXd HN = H_ * directions;
   const Eigen::MatrixXd NHN = directions.transpose() * HN;
   // Directions the prior already knows nothing about stay out of the inverse.
-  const Eigen::MatrixXd NHN_inv = PseudoInverse(NHN, 1e-12 * std::max(1.0, NHN.trace()));
+  const Eigen::MatrixXd NHN_inv = PseudoInverse(NHN, {1e-12 * std::max(1.0, NHN.trace()), 0});
   b_ -= HN * (NHN_inv * (directions.transpose() * b_));
   H_ -= HN * NHN_inv * HN.transpose();
   Factor();

@@ -1,12 +1,17 @@
 #pragma once
-// The whole vehicle pipeline over a recorded EuRoC-layout sequence, as three threads joined by
-// bounded queues:
-//   A  read frames, pick keyframes by odometry motion, SGBM depth     -> depth queue (cap 4)
-//   B  temporal filter (needs i+2), local cloud every N keyframes, prior registration + gate,
-//      Ceres fusion (incremental; final pass at the end), finalize     -> output queue (cap 16)
+// The whole vehicle pipeline over a recorded EuRoC-layout sequence, as up to five threads
+// joined by bounded queues (pipeline.cpp, one function per stage):
+//   0  decode and rectify frames, the odometry's front end (only for odometry that needs
+//      images, with decode_ahead)                                     -> decoded queue (cap 4)
+//   A  odometry, keyframe selection by motion                         -> keyframe queue (cap 4)
+//   A2 SGBM depth of each keyframe                                    -> depth queue (cap 4)
+//   B  (the caller's thread) temporal filter (needs i+2), local cloud every N keyframes, prior
+//      registration + gate, Ceres fusion (incremental; final pass at the end), finalize
+//                                                                     -> output queue (cap 16)
 //   C  write the keyframe folder and enqueue uploads (durable queue)
-// Keyframe k is final once it is final_lag_keyframes behind the newest and a registration at
-// or after k was fused (its pose is then constrained from both sides); the rest at the end.
+// GICP inside B uses num_threads more. Keyframe k is final once it is final_lag_keyframes
+// behind the newest and a registration at or after k was fused (its pose is then constrained
+// from both sides); the rest at the end.
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,8 +24,13 @@
 
 namespace mapdelta::client {
 
+class StereoInput;
+
 struct PipelineInputs {
   std::string sequence_dir;
+  // The sequence already read and rectified by the caller (it must outlive the run), so that
+  // the caller's other readers (the VIO, the upload camera) share one copy; null: read here.
+  const StereoInput* input = nullptr;
   OdometrySource* odometry = nullptr;     // required
   PriorSource* prior = nullptr;           // null: no registration, fused = odometry
   Uploader* uploader = nullptr;           // null: no upload

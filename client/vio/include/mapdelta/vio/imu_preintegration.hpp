@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "mapdelta/common/euroc.hpp"
+#include "mapdelta/common/lie.hpp"  // Skew, RightJacobianSO3, ExpQuaternion, LogQuaternion
 
 namespace mapdelta::vio {
 
@@ -85,12 +86,5 @@ class ImuPreintegration {
   Matrix15d cov_ = Matrix15d::Zero();
   Matrix15d jac_ = Matrix15d::Identity();
 };
-
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v);
-// Right Jacobian of SO(3) and its inverse.
-Eigen::Matrix3d RightJacobianSO3(const Eigen::Vector3d& phi);
-Eigen::Matrix3d RightJacobianInvSO3(const Eigen::Vector3d& phi);
-Eigen::Quaterniond ExpQ(const Eigen::Vector3d& phi);
-Eigen::Vector3d LogQ(const Eigen::Quaterniond& q);
 
 }  // namespace mapdelta::vio

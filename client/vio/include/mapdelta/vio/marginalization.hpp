@@ -7,6 +7,7 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Core>
+#include <map>
 #include <memory>
 #include <set>
 #include <vector>
@@ -45,6 +46,17 @@ class Marginalizer {
     const ceres::LossFunction* loss = nullptr;
     std::vector<double*> params;
   };
+  // Tangent coordinates of every block: dropped ones first (dims [0, dropped)), then the
+  // kept ones (dims [dropped, total)).
+  struct TangentLayout {
+    std::map<const double*, int> ambient_size, offset;
+    int dropped = 0, total = 0;
+  };
+  TangentLayout LayOut();  // also sets kept_, kept_sizes_, x0_
+  // H = J^T J and g = J^T r of every block at the current estimate, in the layout's order.
+  void Linearize(const TangentLayout& layout, Eigen::MatrixXd* H, Eigen::VectorXd* g) const;
+  // The Schur complement of the dropped coordinates: H_, b_ over the kept ones.
+  void ReduceOntoKept(const TangentLayout& layout, Eigen::MatrixXd H, Eigen::VectorXd g);
   void Factor();  // H_, b_ -> J_, r_
 
   std::vector<Block> blocks_;

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "mapdelta/common/lie.hpp"
 #include "mapdelta/common/pose.hpp"
 
 namespace mapdelta {
@@ -83,12 +84,6 @@ inline Eigen::Matrix3d GicpWeight(const Eigen::Matrix3d& target_covariance,
                                   const Eigen::Matrix3d& source_covariance,
                                   const Eigen::Matrix3d& R) {
   return (target_covariance + R * source_covariance * R.transpose()).inverse();
-}
-
-inline Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return S;
 }
 
 // r = target_point - T_target_source * source_point. With the right perturbation
