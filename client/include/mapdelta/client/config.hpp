@@ -1,6 +1,6 @@
 #pragma once
 // Configuration of every client stage: nested structs with defaults and units in the
-// declaration (defaults from docs/design.md and the paper's reference config). Loaded from
+// declaration (defaults from shared/DESIGN.md and the paper's reference config). Loaded from
 // YAML in one place (src/config.cpp lists every field with its range); unknown keys and
 // out-of-range values are all reported at once.
 #include <string>

@@ -1,7 +1,7 @@
 #pragma once
 // The client's view of the server's REST API (docs/api.md), as an interface so the uploader
 // and prior fetcher are testable without sockets. The cpp-httplib implementation lives in
-// http_transport.cpp only (httplib.h must never reach a header: see docs/design.md pitfalls).
+// http_transport.cpp only (httplib.h must never reach a header: see DESIGN.md pitfalls).
 #include <memory>
 #include <string>
 

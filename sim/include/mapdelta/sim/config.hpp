@@ -10,7 +10,7 @@ namespace mapdelta::sim {
 // kEuroc: EuRoC MH_01's imu0/sensor.yaml densities (ADIS16448) with the small image noise.
 enum class NoiseLevel { kNone, kSmall, kBig, kEuroc };
 
-// Paper table (docs/design.md): continuous-time densities and image sigma (fraction of full scale).
+// Paper table (DESIGN.md): continuous-time densities and image sigma (fraction of full scale).
 struct NoiseParams {
   double gyro_noise_density = 0.0;   // rad/s/sqrt(Hz)
   double accel_noise_density = 0.0;  // m/s^2/sqrt(Hz)
