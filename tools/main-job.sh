@@ -160,7 +160,7 @@ for _ in $(seq 1 600); do
   sleep 0.5
 done
 api GET "/v1/admin/jobs" "$admin_token" |
-  jq -r '.jobs[] | "job \(.id) \(.type) \(.state)"' >&2
+  jq -r '.jobs[] | "job \(.job_id) \(.type) \(.state)"' >&2
 
 # ---------------------------------------------------------------------------------------------
 step "evaluate every sequence: ATE (VIO alone, fused) and the paper's change metrics"
