@@ -22,12 +22,15 @@
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/server/map_service.hpp"
 #include "mapdelta/server/memory_storage.hpp"
+#include "prior_points.hpp"
 
 namespace mapdelta::server {
 namespace {
 
 namespace fs = std::filesystem;
-using PointSet = std::multiset<std::array<float, 3>>;
+using testing::PointSet;
+using testing::PriorPoints;
+using testing::ToSet;
 
 fs::path TempDir(const std::string& name) {
   const fs::path d =
@@ -35,26 +38,6 @@ fs::path TempDir(const std::string& name) {
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
-}
-
-PointSet ToSet(const PointCloud& cloud) {
-  PointSet set;
-  for (const Point& p : cloud) set.insert({p.x(), p.y(), p.z()});
-  return set;
-}
-
-// Every point of a prior version, read back from the store.
-PointSet PriorPoints(MapService& service, int64_t version) {
-  constexpr double kLow = std::numeric_limits<int32_t>::min();
-  constexpr double kHigh = std::numeric_limits<int32_t>::max();
-  PointSet set;
-  auto& priors = service.storage().priors();
-  for (const auto& t : priors.ListTiles(Rect{kLow, kLow, kHigh, kHigh}, version)) {
-    for (const Point& p : DecodePoints(priors.GetTile(t.tile, version)->points)) {
-      set.insert({p.x(), p.y(), p.z()});
-    }
-  }
-  return set;
 }
 
 std::string ReadText(const fs::path& path) {

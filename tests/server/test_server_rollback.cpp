@@ -19,26 +19,15 @@
 #include "mapdelta/server/memory_storage.hpp"
 #include "mapdelta/server/storage.hpp"
 #include "migrations.hpp"
+#include "prior_points.hpp"
 #include "server_backends.hpp"
 
 namespace mapdelta::server {
 namespace {
 
 namespace fs = std::filesystem;
-using PointSet = std::multiset<std::array<float, 3>>;
-
-PointSet PriorPoints(MapService& service, int64_t version) {
-  constexpr double kLow = std::numeric_limits<int32_t>::min();
-  constexpr double kHigh = std::numeric_limits<int32_t>::max();
-  PointSet set;
-  auto& priors = service.storage().priors();
-  for (const auto& t : priors.ListTiles(Rect{kLow, kLow, kHigh, kHigh}, version)) {
-    for (const Point& p : DecodePoints(priors.GetTile(t.tile, version)->points)) {
-      set.insert({p.x(), p.y(), p.z()});
-    }
-  }
-  return set;
-}
+using testing::PointSet;
+using testing::PriorPoints;
 
 class Rollback : public ::testing::TestWithParam<std::string> {
  protected:
