@@ -193,9 +193,12 @@ Odometry MakeOdometry(const RunOptions& o, const StereoInput& input) {
 // pipeline runs (only with --server and without --no-upload).
 class BackgroundUpload {
  public:
+  // map_origin: the prior's origin, added back to the pipeline's local poses on upload.
   BackgroundUpload(const ClientConfig& config, const PinholeCamera& keyframe_camera,
-                   const std::string& queue_dir, HttpTransport* transport)
+                   const std::string& queue_dir, HttpTransport* transport,
+                   const Eigen::Vector3d& map_origin)
       : queue_(queue_dir), uploader_(config.upload, keyframe_camera, &queue_, transport) {
+    uploader_.SetMapOrigin(map_origin);
     thread_ = std::thread([this] {
       report_ = uploader_.Run(stop_);
       finished_ = true;
@@ -278,12 +281,19 @@ int RunPipelineCommand(int argc, char** argv) {
   in.odometry = odometry.Get();
   in.prior = prior.get();
   in.keyframe_dir = out + "/keyframes";
-  if (!o.initial_pose.empty()) in.initial_T_map_body = ParsePose(o.initial_pose);
+  // The pipeline runs in the prior's local frame (prior_source.hpp): the initial pose given in
+  // map coordinates and the uploaded poses are converted here, at the edges.
+  const Eigen::Vector3d map_origin = prior->MapOrigin();
+  if (!o.initial_pose.empty()) {
+    SE3 T_map_body = ParsePose(o.initial_pose);
+    T_map_body.translation() -= map_origin;
+    in.initial_T_map_body = T_map_body;
+  }
   in.max_frames = o.max_frames;
   std::optional<BackgroundUpload> upload;
   if (transport && !o.no_upload) {
     upload.emplace(config, KeyframeCamera(config, input.rig().left),
-                   out + "/keyframes.upload_queue", transport.get());
+                   out + "/keyframes.upload_queue", transport.get(), map_origin);
     in.uploader = upload->uploader();
   }
 

@@ -15,6 +15,10 @@ namespace mapdelta::client {
 namespace fs = std::filesystem;
 namespace {
 
+// As the server's bound (server/include/mapdelta/server/map_frame.hpp): float32 keeps 0.25 mm
+// within 8192 m of the origin.
+constexpr double kLocalBoundM = 8192;
+
 PointCloud CropXY(const PointCloud& cloud, double x, double y, double r) {
   AxisAlignedBox box;
   box.min = Eigen::Vector3f(static_cast<float>(x - r), static_cast<float>(y - r), -1e30f);
@@ -32,12 +36,17 @@ std::string KeyOf(const TileGrid& grid, double x, double y, double r) {
 
 FilePriorSource::FilePriorSource(const std::string& path, double voxel_m, double tile_size_m)
     : grid_(tile_size_m) {
-  cloud_ = ReadCloud(path);
-  RemoveNonFinite(&cloud_);
+  // Read in double, then made local: float32 of a UTM file would round it to 0.5 m.
+  PrecisePointCloud points = ReadCloudPrecise(path);
+  RemoveNonFinite(&points);
+  origin_ = ChooseLocalOrigin(points, kLocalBoundM, tile_size_m);
+  cloud_.reserve(points.size());
+  for (const auto& p : points) cloud_.push_back((p - origin_).cast<float>());
   if (voxel_m > 0) cloud_ = VoxelDownsample(cloud_, static_cast<float>(voxel_m));
   if (cloud_.empty())
     throw Error(ErrorCode::kInvalidArgument, path + ": prior cloud has no points");
-  MD_LOG(kInfo, "prior: " << cloud_.size() << " points from " << path);
+  MD_LOG(kInfo, "prior: " << cloud_.size() << " points from " << path << ", local origin ("
+                          << origin_.x() << ", " << origin_.y() << ", " << origin_.z() << ")");
 }
 
 PointCloud FilePriorSource::CloudAround(double x, double y, double r) {
@@ -58,12 +67,31 @@ ServerPriorSource::ServerPriorSource(HttpTransport* transport, const std::string
 
 std::string ServerPriorSource::Key(double x, double y, double r) { return KeyOf(grid_, x, y, r); }
 
+Eigen::Vector3d ServerPriorSource::MapOrigin() {
+  if (origin_) return *origin_;
+  const HttpResponse res = transport_->Get("/v1/map");
+  if (!res.Ok()) {
+    throw Error(ErrorCode::kIo,
+                "prior: GET /v1/map failed: " +
+                    (res.status ? "HTTP " + std::to_string(res.status) : res.error));
+  }
+  try {
+    const auto o = nlohmann::json::parse(res.body).at("origin");
+    origin_ = Eigen::Vector3d(o.at(0).get<double>(), o.at(1).get<double>(), o.at(2).get<double>());
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(ErrorCode::kParse, "prior: GET /v1/map: " + std::string(e.what()));
+  }
+  return *origin_;
+}
+
 ServerPriorSource::Listing ServerPriorSource::List(double x, double y, double r) {
   const std::string key = Key(x, y, r);
   if (const auto it = listings_.find(key); it != listings_.end()) return it->second;
+  // The listing asks in map coordinates; its tiles (ids, PCD points) are local.
+  const Eigen::Vector3d origin = MapOrigin();
   std::ostringstream path;
-  path.precision(12);
-  path << "/v1/prior/tiles?x=" << x << "&y=" << y << "&radius=" << r;
+  path.precision(17);
+  path << "/v1/prior/tiles?x=" << x + origin.x() << "&y=" << y + origin.y() << "&radius=" << r;
   const HttpResponse res = transport_->Get(path.str());
   if (!res.Ok()) {
     throw Error(ErrorCode::kIo,
@@ -112,7 +140,7 @@ const PointCloud& ServerPriorSource::Tile(int64_t version, const std::string& ti
     fs::rename(tmp, file);
     ++downloaded_;
   }
-  PointCloud cloud = ReadCloud(file.string());
+  PointCloud cloud = ReadCloud(file.string());  // local: the VIEWPOINT (origin) is not applied
   RemoveNonFinite(&cloud);
   if (voxel_m_ > 0) cloud = VoxelDownsample(cloud, static_cast<float>(voxel_m_));
   return memory_[key] = std::move(cloud);

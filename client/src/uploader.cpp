@@ -31,9 +31,9 @@ std::string Describe(const HttpResponse& r) {
 
 }  // namespace
 
-std::string KeyframeMetaJson(const Keyframe& keyframe) {
+std::string KeyframeMetaJson(const Keyframe& keyframe, const Eigen::Vector3d& map_origin) {
   const Eigen::Quaterniond q(keyframe.T_map_cam.linear());
-  const Eigen::Vector3d t = keyframe.T_map_cam.translation();
+  const Eigen::Vector3d t = keyframe.T_map_cam.translation() + map_origin;
   Json meta;
   meta["t_ns"] = keyframe.t_ns;
   meta["T_map_cam"] = {{"t", {t.x(), t.y(), t.z()}}, {"q", {q.w(), q.x(), q.y(), q.z()}}};
@@ -55,7 +55,7 @@ Uploader::Uploader(const UploadConfig& config, const PinholeCamera& camera, Uplo
 
 int64_t Uploader::Enqueue(const Keyframe& keyframe) {
   const auto png = EncodeDepthPng(keyframe.depth, config_.depth_scale);
-  return queue_->Enqueue(KeyframeMetaJson(keyframe), png);
+  return queue_->Enqueue(KeyframeMetaJson(keyframe, map_origin_), png);
 }
 
 std::string Uploader::SessionPath() const {

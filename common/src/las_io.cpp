@@ -40,7 +40,7 @@ void Put(std::string* out, size_t at, T v) {
 
 }  // namespace
 
-PointCloud ParseLas(std::string_view bytes, const std::string& path) {
+PrecisePointCloud ParseLasPrecise(std::string_view bytes, const std::string& path) {
   if (bytes.size() < 4 || bytes.substr(0, 4) != "LASF")
     Fail(path, "not a LAS file (no 'LASF' signature)");
   if (bytes.size() < kHeaderSize12)
@@ -98,16 +98,19 @@ PointCloud ParseLas(std::string_view bytes, const std::string& path) {
       Fail(path, std::string("scale/offset of ") + "xyz"[a] + " is not a finite, non-zero scale");
     }
   }
-  PointCloud cloud;
+  PrecisePointCloud cloud;
   cloud.reserve(count);
   for (uint64_t i = 0; i < count; ++i) {
     const size_t at = data_offset + i * record_length;
-    Point p;
-    for (int a = 0; a < 3; ++a)
-      p[a] = static_cast<float>(Get<int32_t>(bytes, at + 4 * a) * scale[a] + offset[a]);
+    PrecisePoint p;
+    for (int a = 0; a < 3; ++a) p[a] = Get<int32_t>(bytes, at + 4 * a) * scale[a] + offset[a];
     cloud.push_back(p);
   }
   return cloud;
+}
+
+PointCloud ParseLas(std::string_view bytes, const std::string& path) {
+  return ToFloat(ParseLasPrecise(bytes, path));
 }
 
 std::string EncodeLas(const PointCloud& cloud, const LasWriteOptions& options) {

@@ -51,6 +51,7 @@ struct PcdHeader {
   size_t data_offset = 0;
   uint64_t point_size = 0;
   int xyz[3] = {-1, -1, -1};
+  std::array<double, 7> viewpoint = {0, 0, 0, 1, 0, 0, 0};  // PCL's default
 };
 
 // Converts one value of a field stored at p (little-endian host, as PCL writes it).
@@ -152,6 +153,12 @@ PcdHeader ParseHeader(std::string_view bytes, const std::string& path) {
       have_points = true;
     } else if (key == "VIEWPOINT") {
       if (values.size() != 7) reader.Fail("VIEWPOINT must have 7 values");
+      for (size_t k = 0; k < 7; ++k) {
+        char* end = nullptr;
+        h.viewpoint[k] = std::strtod(values[k].c_str(), &end);
+        if (end != values[k].c_str() + values[k].size() || !std::isfinite(h.viewpoint[k]))
+          reader.Fail("VIEWPOINT value " + std::to_string(k + 1) + " is not a finite number");
+      }
     } else if (key == "DATA") {
       if (values.size() != 1 ||
           (values[0] != "ascii" && values[0] != "binary" && values[0] != "binary_compressed")) {
@@ -228,8 +235,8 @@ bool LzfDecompress(const unsigned char* in, size_t in_size, unsigned char* out, 
   return op == out_size;
 }
 
-void Append(PointCloud* cloud, double x, double y, double z, size_t* dropped) {
-  const Point p(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+void Append(PrecisePointCloud* cloud, double x, double y, double z, size_t* dropped) {
+  const PrecisePoint p(x, y, z);
   if (p.allFinite())
     cloud->push_back(p);
   else
@@ -238,8 +245,10 @@ void Append(PointCloud* cloud, double x, double y, double z, size_t* dropped) {
 
 }  // namespace
 
-PointCloud ParsePcd(std::string_view bytes, const std::string& path) {
+PrecisePointCloud ParsePcd(std::string_view bytes, const std::string& path,
+                           std::array<double, 7>* viewpoint) {
   const PcdHeader h = ParseHeader(bytes, path);
+  if (viewpoint) *viewpoint = h.viewpoint;
   const std::string_view data = bytes.substr(std::min(h.data_offset, bytes.size()));
   const uint64_t n = h.points;
   const Field* f[3] = {&h.fields[h.xyz[0]], &h.fields[h.xyz[1]], &h.fields[h.xyz[2]]};
@@ -248,7 +257,7 @@ PointCloud ParsePcd(std::string_view bytes, const std::string& path) {
                                         std::to_string(n) + " points (" + std::to_string(need) +
                                         " bytes), file has " + std::to_string(have) + " bytes");
   };
-  PointCloud cloud;
+  PrecisePointCloud cloud;
   size_t dropped = 0;
   if (h.data == "ascii") {
     uint64_t total_values = 0;

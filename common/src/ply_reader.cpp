@@ -231,15 +231,15 @@ std::array<int, 3> XyzProperties(const Element& vertex, const std::string& path)
 }
 
 // The vertices' positions (non-finite ones dropped), read from the cursor at the first vertex.
-PointCloud ReadVertices(const Element& vertex, const std::array<int, 3>& xyz, Format format,
-                        DataCursor* cursor, const std::string& path) {
+PrecisePointCloud ReadVertices(const Element& vertex, const std::array<int, 3>& xyz, Format format,
+                               DataCursor* cursor, const std::string& path) {
   // Each vertex needs at least one byte per property (binary) or two characters (ascii).
   const uint64_t min_bytes = vertex.properties.size() * (format == Format::kAscii ? 2 : 1);
   if (vertex.count > cursor->remaining() / std::max<uint64_t>(min_bytes, 1) + 1) {
     throw Error(ErrorCode::kParse, path + ": header declares " + std::to_string(vertex.count) +
                                        " vertices but the file is too short for them");
   }
-  PointCloud cloud;
+  PrecisePointCloud cloud;
   cloud.reserve(vertex.count);
   size_t dropped = 0;
   double v[3] = {0, 0, 0};
@@ -262,7 +262,7 @@ PointCloud ReadVertices(const Element& vertex, const std::array<int, 3>& xyz, Fo
         if (xyz[axis] == static_cast<int>(k)) v[axis] = value;
       }
     }
-    const Point p(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
+    const PrecisePoint p(v[0], v[1], v[2]);
     if (p.allFinite())
       cloud.push_back(p);
     else
@@ -274,7 +274,7 @@ PointCloud ReadVertices(const Element& vertex, const std::array<int, 3>& xyz, Fo
 
 }  // namespace
 
-PointCloud ParsePly(std::string_view bytes, const std::string& path) {
+PrecisePointCloud ParsePly(std::string_view bytes, const std::string& path) {
   HeaderReader reader(bytes, path);
   const PlyHeader header = ParseHeader(reader, path);
   auto vertex = std::find_if(header.elements.begin(), header.elements.end(),

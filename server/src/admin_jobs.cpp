@@ -80,7 +80,8 @@ std::vector<TileId> JobTiles(Storage& storage, const TileGrid& grid, const Json&
     for (const Json& t : params["tiles"])
       tiles.push_back(*TileId::FromString(t.get<std::string>()));
   } else if (params.contains("bbox")) {
-    const auto& b = params["bbox"];
+    // local_bbox: the bbox in the map's local frame (jobs queued before frames have none).
+    const auto& b = params.contains("local_bbox") ? params["local_bbox"] : params["bbox"];
     for (const TileId& t : grid.TilesInRect(b[0].get<double>(), b[1].get<double>(),
                                             b[2].get<double>(), b[3].get<double>())) {
       tiles.push_back(t);

@@ -5,6 +5,7 @@
 
 #include "autoware_map.hpp"
 #include "autoware_metadata.hpp"
+#include "autoware_projector.hpp"
 #include "blob_codec.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
@@ -41,12 +42,12 @@ void PrepareEmptyFolder(const fs::path& dir) {
   }
 }
 
-// Written beside, then renamed: a reader never sees half a metadata file.
-void WriteMetadata(const fs::path& path, const AutowareMetadata& metadata) {
+// Written beside, then renamed: a reader never sees half a YAML file.
+void WriteYaml(const fs::path& path, const std::string& text) {
   const fs::path partial = path.string() + ".partial";
   {
     std::ofstream out(partial, std::ios::binary);
-    out << FormatAutowareMetadata(metadata);
+    out << text;
     out.flush();
     if (!out) throw Error(ErrorCode::kIo, partial.string() + ": cannot write");
   }
@@ -58,7 +59,7 @@ void WriteMetadata(const fs::path& path, const AutowareMetadata& metadata) {
 }  // namespace
 
 AutowareExportSummary ExportAutowareMap(PriorStore& priors, int64_t version, double tile_size_m,
-                                        const std::string& out_dir) {
+                                        const std::string& out_dir, const MapFrame& frame) {
   const auto latest = priors.LatestVersion();
   if (!latest || version < 1 || version > *latest) {
     throw Error(ErrorCode::kNotFound,
@@ -84,8 +85,9 @@ AutowareExportSummary ExportAutowareMap(PriorStore& priors, int64_t version, dou
     summary.points += points.size();
   }
   summary.tiles = metadata.tiles.size();
+  WriteYaml(dir / kAutowareProjectorFile, FormatAutowareProjector(frame));
   summary.metadata_path = (dir / kAutowareMetadataFile).string();
-  WriteMetadata(summary.metadata_path, metadata);
+  WriteYaml(summary.metadata_path, FormatAutowareMetadata(metadata));
   return summary;
 }
 

@@ -8,6 +8,7 @@
 
 #include "autoware_map.hpp"
 #include "autoware_metadata.hpp"
+#include "autoware_projector.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
 
@@ -54,9 +55,32 @@ void CheckInsideBox(const PointCloud& cloud, const AutowareTileEntry& tile,
   }
 }
 
+// The folder's projector, merged into what the caller asked for (they must agree).
+void MergeProjector(const fs::path& dir, FrameRequest* request) {
+  const fs::path path = dir / kAutowareProjectorFile;
+  if (!fs::is_regular_file(path)) return;
+  const FrameRequest stated = ParseAutowareProjector(ReadText(path), path.string());
+  if (stated.crs && request->crs && *stated.crs != *request->crs) {
+    throw Error(ErrorCode::kInvalidArgument, path.string() + ": crs '" + *stated.crs +
+                                                 "' disagrees with the requested '" +
+                                                 *request->crs + "'");
+  }
+  if (stated.origin && request->origin &&
+      !SameFrame({"", *stated.origin}, {"", *request->origin})) {
+    throw Error(ErrorCode::kInvalidArgument,
+                path.string() + ": origin " + Describe({"", *stated.origin}) +
+                    " disagrees with the requested " + Describe({"", *request->origin}));
+  }
+  if (stated.crs) request->crs = stated.crs;
+  if (stated.origin) request->origin = stated.origin;
+}
+
 }  // namespace
 
-PointCloud ReadAutowareMapFolder(const std::string& dir) {
+PrecisePointCloud ReadAutowareMapFolder(const std::string& dir, FrameRequest* request) {
+  MergeProjector(dir, request);
+  // Without a projector origin the tiles are taken as user coordinates, as a plain file is.
+  const Eigen::Vector3d offset = request->origin.value_or(Eigen::Vector3d::Zero());
   const fs::path metadata_path = fs::path(dir) / kAutowareMetadataFile;
   if (!fs::is_regular_file(metadata_path)) {
     throw Error(ErrorCode::kIo, dir + ": no " + std::string(kAutowareMetadataFile) +
@@ -65,7 +89,7 @@ PointCloud ReadAutowareMapFolder(const std::string& dir) {
   const AutowareMetadata metadata =
       ParseAutowareMetadata(ReadText(metadata_path), metadata_path.string());
   std::set<fs::path> seen;
-  PointCloud all;
+  PrecisePointCloud all;
   for (const AutowareTileEntry& tile : metadata.tiles) {
     const fs::path path = (fs::path(dir) / tile.file).lexically_normal();
     if (!seen.insert(path).second) {
@@ -77,7 +101,7 @@ PointCloud ReadAutowareMapFolder(const std::string& dir) {
     }
     const PointCloud cloud = ReadCloud(path.string());
     CheckInsideBox(cloud, tile, metadata, path);
-    all.insert(all.end(), cloud.begin(), cloud.end());
+    for (const Point& p : cloud) all.push_back(p.cast<double>() + offset);
   }
   return all;
 }

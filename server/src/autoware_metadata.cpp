@@ -10,17 +10,10 @@
 #include <sstream>
 
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/number_text.hpp"
 
 namespace mapdelta::server {
 namespace {
-
-// Shortest text that reads back to the same double ("50", "-12.5"), as std::to_chars gives.
-std::string ShortestNumber(double value) {
-  char buffer[64];
-  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
-  if (ec != std::errc()) throw Error(ErrorCode::kInternal, "cannot format a coordinate");
-  return std::string(buffer, end);
-}
 
 [[noreturn]] void Fail(const std::string& what, const std::string& message) {
   throw Error(ErrorCode::kParse, what + ": " + message);

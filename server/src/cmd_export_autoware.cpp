@@ -40,11 +40,13 @@ int ExportAutowareCommand(const std::vector<std::string>& args) {
   const auto storage = OpenSqliteStorage(config.storage.database);
   std::fprintf(stderr, "exporting prior version %lld to %s ...\n", static_cast<long long>(version),
                out_dir.c_str());
+  const MapFrame frame = storage->priors().Frame().value_or(MapFrame{});
   const AutowareExportSummary s =
-      ExportAutowareMap(storage->priors(), version, tile_size_m, out_dir);
-  std::printf("prior_version: %lld\ntile_size_m: %g\ntiles: %zu\npoints: %zu\nmetadata: %s\n",
-              static_cast<long long>(s.version), s.tile_size_m, s.tiles, s.points,
-              s.metadata_path.c_str());
+      ExportAutowareMap(storage->priors(), version, tile_size_m, out_dir, frame);
+  std::printf(
+      "prior_version: %lld\ntile_size_m: %g\ntiles: %zu\npoints: %zu\nmetadata: %s\nframe: %s\n",
+      static_cast<long long>(s.version), s.tile_size_m, s.tiles, s.points, s.metadata_path.c_str(),
+      Describe(frame).c_str());
   return cli::kExitOk;
 }
 

@@ -250,6 +250,10 @@ void RegisterMapRoutes(httplib::Server& s, MapService& svc) {
                                           QueryDouble(req, "y", std::nullopt),
                                           QueryDouble(req, "radius", 100.0), QueryVersion(req)));
              }));
+  s.Get("/v1/map", Wrap(svc, "/v1/map", {}, [&svc](const Req& req, Res& res, std::string& role) {
+          Auth(svc, req, role, {R, V, A});
+          WriteJson(res, 200, svc.GetMap());
+        }));
   s.Get("/v1/prior/versions",
         Wrap(svc, "/v1/prior/versions", {}, [&svc](const Req& req, Res& res, std::string& role) {
           Auth(svc, req, role, {V, R});
@@ -299,7 +303,7 @@ void RegisterAdminRoutes(httplib::Server& s, MapService& svc) {
   const int64_t json_limit = svc.config().http.max_body_bytes;
   const int64_t prior_limit = svc.config().http.max_prior_bytes;
   s.Post("/v1/admin/prior",
-         Wrap(svc, "/v1/admin/prior", {"format", "note"},
+         Wrap(svc, "/v1/admin/prior", {"format", "note", "origin", "crs"},
               [&svc, prior_limit](const Req& req, Res& res, std::string& role) {
                 Auth(svc, req, role, {A});
                 if (static_cast<int64_t>(req.body.size()) > prior_limit) {
@@ -314,9 +318,17 @@ void RegisterAdminRoutes(httplib::Server& s, MapService& svc) {
                 if (!format)
                   throw ApiError(ApiCode::kInvalidArgument,
                                  "query parameter 'format' (pcd or ply) is required");
+                FrameRequest frame;
+                frame.crs = Query(req, "crs");
+                if (const auto origin = Query(req, "origin")) {
+                  frame.origin = ParseOrigin(*origin);
+                  if (!frame.origin)
+                    throw ApiError(ApiCode::kInvalidArgument,
+                                   "query parameter 'origin': expected X,Y,Z in metres");
+                }
                 WriteJson(res, 201,
                           svc.ImportPrior(Bytes(req.body.begin(), req.body.end()), *format,
-                                          Query(req, "note").value_or("")));
+                                          Query(req, "note").value_or(""), frame));
               }));
   s.Post("/v1/admin/jobs", Wrap(svc, "/v1/admin/jobs", {},
                                 [&svc, json_limit](const Req& req, Res& res, std::string& role) {

@@ -35,6 +35,7 @@ Usage:
   mapdelta-server token revoke --config FILE --id TOKEN_ID
   mapdelta-server token list   --config FILE
   mapdelta-server import-prior --config FILE --cloud FILE.pcd|.ply|.las|DIR [--note TEXT]
+                               [--origin X,Y,Z] [--crs NAME]
   mapdelta-server export-autoware --config FILE --version N --out DIR [--tile-size M]
   mapdelta-server check-config --config FILE
   mapdelta-server --help
@@ -51,7 +52,8 @@ token create  Prints the new token's id and secret. The secret is shown only onc
 token revoke  Revokes a token by id (requests with it get 401 from then on).
 import-prior  Imports a PCD, PLY or LAS cloud, or an Autoware grid map folder (tiles +
               pointcloud_map_metadata.yaml), as a new prior version (over HTTP:
-              POST /v1/admin/prior, PCD/PLY).
+              POST /v1/admin/prior, PCD/PLY). The first import sets the map's frame
+              (--crs, --origin; printed); later ones must agree with it.
 export-autoware  Writes a prior version as an Autoware grid map folder.
 check-config  Validates the config (all problems at once) and prints the effective config.
 
@@ -251,24 +253,40 @@ int TokenList(const std::vector<std::string>& args) {
 }
 
 int ImportPrior(const std::vector<std::string>& args) {
-  std::string config_path, path, note;
-  cli::Parser cli(
-      "mapdelta-server import-prior",
-      "Imports a PCD, PLY or LAS cloud, or an Autoware grid map folder (tile PCDs\n"
-      "listed in its pointcloud_map_metadata.yaml, each point checked against its\n"
-      "tile's box), as a new prior version (over HTTP: POST /v1/admin/prior, PCD/PLY).");
+  std::string config_path, path, note, origin_text, crs;
+  cli::Parser cli("mapdelta-server import-prior",
+                  "Imports a PCD, PLY or LAS cloud, or an Autoware grid map folder (tile PCDs\n"
+                  "listed in its pointcloud_map_metadata.yaml, each point checked against its\n"
+                  "tile's box, placed by its map_projector_info.yaml), as a new prior version\n"
+                  "(over HTTP: POST /v1/admin/prior, PCD/PLY). The first import sets the map's\n"
+                  "frame: --crs and --origin, or the folder's projector, or an origin chosen from\n"
+                  "the cloud (printed); later imports must agree with it.");
   AddConfigOption(cli, &config_path)
-      .Option("cloud", &path, "the prior map, in map coordinates", "FILE.pcd|.ply|.las|DIR")
+      .Option("cloud", &path, "the prior map, in the map's coordinates (e.g. UTM)",
+              "FILE.pcd|.ply|.las|DIR")
       .Option("note", &note, "recorded with the version (default: the file name)", "TEXT")
+      .Option("origin", &origin_text,
+              "the map's local origin in those coordinates (first import; points must lie "
+              "within 8192 m of it)",
+              "X,Y,Z")
+      .Option("crs", &crs, "the name of those coordinates' CRS, free text (first import)", "NAME")
       .Require({"cloud"})
       .Footer(cli::kExitCodesFooter);
   if (!cli.Parse(args, std::cout)) return cli::kExitOk;
+  mds::FrameRequest frame;
+  if (cli.Given("origin")) {
+    frame.origin = mds::ParseOrigin(origin_text);
+    if (!frame.origin)
+      cli::FailUsage(cli.program(),
+                     "--origin: expected X,Y,Z in metres, got '" + origin_text + "'");
+  }
+  if (cli.Given("crs")) frame.crs = crs;
   const mds::ServerConfig config = mds::LoadServerConfig(config_path);
   InstallLogSink(mds::LogConfig{"info", "text"});
   mds::MapService service(config, mds::OpenConfiguredStorage(config));
   std::fprintf(stderr, "importing %s ...\n", path.c_str());
   if (!cli.Given("note")) note = std::filesystem::path(path).filename().string();
-  std::printf("%s\n", service.ImportPriorFile(path, note).dump(2).c_str());
+  std::printf("%s\n", service.ImportPriorFile(path, note, frame).dump(2).c_str());
   return 0;
 }
 

@@ -119,7 +119,7 @@ Json MapService::PutKeyframe(int64_t session_id, int64_t seq, const Json& meta,
     RejectUnknownFields(meta, {"t_ns", "T_map_cam", "covariance"}, "meta");
     const int64_t t_ns = IntField(meta, "t_ns");
     if (t_ns < 0) throw ApiError(ApiCode::kInvalidArgument, "field 't_ns': must be >= 0");
-    const SE3 T = PoseFromJson(Field(meta, "T_map_cam"), "T_map_cam");
+    const SE3 T = LocalPose(PoseFromJson(Field(meta, "T_map_cam"), "T_map_cam"));
     std::optional<Matrix6d> cov;
     if (meta.contains("covariance")) cov = CovarianceFromJson(meta["covariance"], "covariance");
     const PinholeCamera camera = CameraFromJson(Json::parse(session->camera_json), config_.ingest);

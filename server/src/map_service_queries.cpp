@@ -13,6 +13,7 @@
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
+#include "mapdelta/common/number_text.hpp"
 #include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/server/map_service.hpp"
 #include "observed_crop.hpp"
@@ -53,12 +54,13 @@ class TempFile {
 
 // The bytes of a cloud file: `write(path, cloud)` is WriteCloud or WriteChangeCloud.
 template <typename Cloud, typename Writer>
-FilePayload CloudPayload(const Cloud& cloud, const std::string& format, Writer write) {
+FilePayload CloudPayload(const Cloud& cloud, const std::string& format, const MapFrame& frame,
+                         Writer write) {
   if (format != "pcd" && format != "ply") {
     throw ApiError(ApiCode::kInvalidArgument, "format must be pcd or ply");
   }
   TempFile f("." + format);
-  write(f.path(), cloud);
+  write(f.path(), cloud, CloudFrame{frame.origin, frame.crs});
   FilePayload p;
   p.bytes = f.Read();
   p.content_type = format == "pcd" ? "application/x-pcd" : "application/x-ply";
@@ -72,10 +74,20 @@ TileId ParseTile(const std::string& text) {
   return *tile;
 }
 
-// Tile index range of a metric rectangle, as a Rect of indices (what storage filters on).
-Rect TileRange(const TileGrid& grid, double min_x, double min_y, double max_x, double max_y) {
-  const TileId a = grid.TileOf(min_x, min_y), b = grid.TileOf(max_x, max_y);
+// Tile index range of a rectangle in user coordinates, as a Rect of indices (what storage
+// filters on); the grid is the map's local one.
+Rect TileRange(const TileGrid& grid, const MapFrame& frame, double min_x, double min_y,
+               double max_x, double max_y) {
+  const TileId a = grid.TileOf(min_x - frame.origin.x(), min_y - frame.origin.y());
+  const TileId b = grid.TileOf(max_x - frame.origin.x(), max_y - frame.origin.y());
   return Rect{double(a.ix()), double(a.iy()), double(b.ix()), double(b.iy())};
+}
+
+// A tile's [min_x, min_y, max_x, max_y] in user coordinates.
+Json UserBounds(const TileGrid& grid, const MapFrame& frame, const TileId& tile) {
+  const AxisAlignedBox b = grid.Bounds(tile);
+  const Eigen::Vector3d lo = UserPoint(frame, b.min), hi = UserPoint(frame, b.max);
+  return {lo.x(), lo.y(), hi.x(), hi.y()};
 }
 
 std::vector<double> ParseBbox(const std::string& text) {
@@ -140,54 +152,14 @@ int64_t MapService::RequirePriorVersion() {
 
 // ---------------------------------------------------------------- prior map
 
-Json MapService::ImportPriorFile(const std::string& path, const std::string& note) {
-  PointCloud cloud;
-  try {
-    // A folder is an Autoware grid map (tiles + pointcloud_map_metadata.yaml).
-    cloud = std::filesystem::is_directory(path) ? ReadAutowareMapFolder(path) : ReadCloud(path);
-  } catch (const Error& e) {
-    throw ApiError(ApiCode::kInvalidArgument, std::string("prior cloud: ") + e.what());
-  }
-  const size_t dropped = RemoveNonFinite(&cloud);
-  if (cloud.empty()) throw ApiError(ApiCode::kInvalidArgument, "prior cloud has no finite points");
-  for (size_t i = 0; i < cloud.size(); ++i) {
-    if (cloud[i].cast<double>().cwiseAbs().maxCoeff() > kMaxCoordinate) {
-      throw ApiError(ApiCode::kInvalidArgument,
-                     "prior cloud: point " + std::to_string(i) + " lies beyond +-1e8 m");
-    }
-  }
-  const TileGrid grid(config_.storage.tile_size_m);
-  std::vector<PriorTileRecord> tiles;
-  for (const auto& [tile, points] : grid.Split(cloud)) {
-    PriorTileRecord r;
-    r.tile = tile;
-    r.point_count = static_cast<int64_t>(points.size());
-    r.points = EncodePoints(points);
-    tiles.push_back(std::move(r));
-  }
-  PriorVersionRecord meta;
-  meta.created_ms = NowMs();
-  meta.source = PriorSource::kImport;
-  meta.note = note;
-  const int64_t version = storage_->priors().CreateVersion(meta, tiles, /*replace_all=*/true);
-  MD_LOG(kInfo, "prior version " << version << " imported: " << cloud.size() << " points in "
-                                 << tiles.size() << " tiles (" << dropped
-                                 << " non-finite dropped)");
-  return Json{{"prior_version", version},
-              {"points", cloud.size()},
-              {"tiles", tiles.size()},
-              {"dropped_non_finite", dropped},
-              {"tile_size_m", config_.storage.tile_size_m}};
-}
-
-Json MapService::ImportPrior(const Bytes& bytes, const std::string& format,
-                             const std::string& note) {
+Json MapService::ImportPrior(const Bytes& bytes, const std::string& format, const std::string& note,
+                             const FrameRequest& frame) {
   if (format != "pcd" && format != "ply")
     throw ApiError(ApiCode::kInvalidArgument, "format must be pcd or ply");
   if (bytes.empty()) throw ApiError(ApiCode::kInvalidArgument, "body is empty");
   TempFile f("." + format);
   f.Write(bytes);
-  return ImportPriorFile(f.path(), note);
+  return ImportPriorFile(f.path(), note, frame);
 }
 
 Json MapService::ListPriorTilesNear(double x, double y, double radius_m,
@@ -202,15 +174,15 @@ Json MapService::ListPriorTilesNear(double x, double y, double radius_m,
   if (v < 1 || v > latest)
     throw ApiError(ApiCode::kNotFound, "prior version " + std::to_string(v) + " does not exist");
   const TileGrid grid(config_.storage.tile_size_m);
+  const MapFrame frame = Frame();
   Json tiles = Json::array();
   for (const PriorTileRecord& t : storage_->priors().ListTiles(
-           TileRange(grid, x - radius_m, y - radius_m, x + radius_m, y + radius_m), v)) {
-    const AxisAlignedBox b = grid.Bounds(t.tile);
+           TileRange(grid, frame, x - radius_m, y - radius_m, x + radius_m, y + radius_m), v)) {
     tiles.push_back(
         {{"tile", t.tile.ToString()},
          {"points", t.point_count},
          {"tile_version", t.version},
-         {"bounds", {b.min.x(), b.min.y(), b.max.x(), b.max.y()}},
+         {"bounds", UserBounds(grid, frame, t.tile)},
          {"url", "/v1/prior/tiles/" + t.tile.ToString() + "?version=" + std::to_string(v)}});
   }
   return Json{{"prior_version", v}, {"tile_size_m", grid.tile_size_m()}, {"tiles", tiles}};
@@ -227,7 +199,9 @@ FilePayload MapService::GetPriorTile(const std::string& tile_text, std::optional
   if (!record)
     throw ApiError(ApiCode::kNotFound,
                    "tile " + tile_text + " has no prior points at version " + std::to_string(v));
-  FilePayload p = CloudPayload(DecodePoints(record->points), format, WriteCloud);
+  FilePayload p = CloudPayload(DecodePoints(record->points), format, Frame(),
+                               [](const std::string& path, const PointCloud& cloud,
+                                  const CloudFrame& frame) { WriteCloud(path, cloud, frame); });
   p.prior_version = v;
   return p;
 }
@@ -256,7 +230,8 @@ Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence
     throw ApiError(ApiCode::kInvalidArgument, "min_confidence must be in [0, 1]");
   if (min_support < 0) throw ApiError(ApiCode::kInvalidArgument, "min_support must be >= 0");
   const TileGrid grid(config_.storage.tile_size_m);
-  const Rect range = TileRange(grid, b[0], b[1], b[2], b[3]);
+  const MapFrame frame = Frame();
+  const Rect range = TileRange(grid, frame, b[0], b[1], b[2], b[3]);
   int64_t total = 0;
   std::vector<TileChangesRecord> listed;
   if (min_support == 0) {
@@ -295,13 +270,12 @@ Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence
   }
   Json tiles = Json::array();
   for (const auto& c : listed) {
-    const AxisAlignedBox bounds = grid.Bounds(c.tile);
     tiles.push_back({{"tile", c.tile.ToString()},
                      {"new_count", c.new_count},
                      {"removed_count", c.removed_count},
                      {"max_confidence", c.max_confidence},
                      {"prior_version", c.prior_version},
-                     {"bounds", {bounds.min.x(), bounds.min.y(), bounds.max.x(), bounds.max.y()}},
+                     {"bounds", UserBounds(grid, frame, c.tile)},
                      {"updated_at", IsoTime(c.updated_ms)},
                      {"params", Json::parse(c.params_json)}});
   }
@@ -330,6 +304,7 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
   auto record = storage_->tiles().GetChanges(tile);
   if (!record) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no classification");
   const std::vector<ChangePoint> changes = DecodeChanges(record->changes);
+  const MapFrame frame = Frame();
   auto keep = [&](const ChangePoint& c) {
     return c.confidence >= min_confidence &&
            static_cast<int64_t>(c.supported_by.size()) >= min_support &&
@@ -342,14 +317,17 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
       cloud.push_back({c.position, c.confidence, static_cast<uint32_t>(c.observed_by.size()),
                        static_cast<uint32_t>(c.supported_by.size())});
     }
-    FilePayload p = CloudPayload(cloud, format, WriteChangeCloud);
+    FilePayload p = CloudPayload(cloud, format, frame,
+                                 [](const std::string& path, const std::vector<ChangeCloudPoint>& c,
+                                    const CloudFrame& f) { WriteChangeCloud(path, c, f); });
     p.prior_version = record->prior_version;
     return p;
   }
   Json fresh = Json::array(), gone = Json::array();
   for (const auto& c : changes) {
     if (!keep(c)) continue;
-    Json j{{"p", {c.position.x(), c.position.y(), c.position.z()}},
+    const Eigen::Vector3d p = UserPoint(frame, c.position);
+    Json j{{"p", {p.x(), p.y(), p.z()}},
            {"confidence", c.confidence},
            {"observed_by", c.observed_by},
            {"supported_by", c.supported_by}};
@@ -424,10 +402,13 @@ Json MapService::CreateJob(const Json& body) {
     for (const Json& e : b) {
       if (!e.is_number())
         throw ApiError(ApiCode::kInvalidArgument, "field 'bbox': expected numbers");
-      text += (text.empty() ? "" : ",") + std::to_string(e.get<double>());
+      text += (text.empty() ? "" : ",") + ShortestNumber(e.get<double>());
     }
-    ParseBbox(text);
+    const std::vector<double> user = ParseBbox(text);
     params["bbox"] = b;
+    // The job works on the map's local tile grid; the user's bbox stays as given for readers.
+    const Eigen::Vector3d& o = Frame().origin;
+    params["local_bbox"] = {user[0] - o.x(), user[1] - o.y(), user[2] - o.x(), user[3] - o.y()};
   }
   if (type == JobType::kRefresh) {
     if (!params.contains("tiles") && !params.contains("bbox"))

@@ -104,9 +104,15 @@ int64_t MemoryPriorStore::CreateVersion(const PriorVersionRecord& meta,
                   "prior version: tile " + tile.tile.ToString() + " given twice");
     }
   }
+  if (meta.frame && t().map_frame && !SameFrame(*t().map_frame, *meta.frame)) {
+    throw Error(ErrorCode::kConflict, "prior version in frame " + Describe(*meta.frame) +
+                                          ", but the map's frame is " + Describe(*t().map_frame));
+  }
+  if (meta.frame && !t().map_frame) t().map_frame = meta.frame;
   const int64_t previous = t().prior_versions.empty() ? 0 : t().prior_versions.rbegin()->first;
   const int64_t version = previous + 1;
   PriorVersionRecord record = meta;
+  record.frame.reset();  // the map's, not the version's (as the SQL backends store it)
   record.version = version;
   record.parent = previous > 0 ? std::optional<int64_t>(previous) : std::nullopt;
   t().prior_versions[version] = record;
@@ -133,6 +139,11 @@ std::optional<int64_t> MemoryPriorStore::LatestVersion() {
   auto lock = Lock();
   if (t().prior_versions.empty()) return std::nullopt;
   return t().prior_versions.rbegin()->first;
+}
+
+std::optional<MapFrame> MemoryPriorStore::Frame() {
+  auto lock = Lock();
+  return t().map_frame;
 }
 
 std::vector<PriorVersionRecord> MemoryPriorStore::ListVersions() {

@@ -28,6 +28,7 @@ struct MemoryTables {
   std::mutex mutex;
   std::vector<TokenRow> tokens;  // insertion order
   std::map<int64_t, PriorVersionRecord> prior_versions;
+  std::optional<MapFrame> map_frame;
   std::map<TileId, std::map<int64_t, PriorTileRecord>> prior_tiles;  // tile -> version -> row
   std::map<int64_t, SessionRow> sessions;
   std::map<int64_t, JobRecord> jobs;
@@ -84,6 +85,7 @@ class MemoryPriorStore final : public PriorStore, MemoryArea {
   int64_t CreateVersion(const PriorVersionRecord& meta, const std::vector<PriorTileRecord>& tiles,
                         bool replace_all) override;
   std::optional<int64_t> LatestVersion() override;
+  std::optional<MapFrame> Frame() override;
   std::vector<PriorVersionRecord> ListVersions() override;
   std::optional<PriorTileRecord> GetTile(const TileId& tile, int64_t version) override;
   std::vector<PriorTileRecord> ListTiles(const Rect& rect, int64_t version) override;

@@ -49,6 +49,7 @@ class PostgresPriorStore final : public PriorStore, PostgresArea {
   int64_t CreateVersion(const PriorVersionRecord& meta, const std::vector<PriorTileRecord>& tiles,
                         bool replace_all) override;
   std::optional<int64_t> LatestVersion() override;
+  std::optional<MapFrame> Frame() override;
   std::vector<PriorVersionRecord> ListVersions() override;
   std::optional<PriorTileRecord> GetTile(const TileId& tile, int64_t version) override;
   std::vector<PriorTileRecord> ListTiles(const Rect& rect, int64_t version) override;

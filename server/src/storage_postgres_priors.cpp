@@ -4,6 +4,33 @@
 #include "storage_postgres.hpp"
 
 namespace mapdelta::server {
+namespace {
+
+std::optional<MapFrame> ReadFrame(pg::Connection& c) {
+  const pg::Result r =
+      c.Query("SELECT crs, origin_x, origin_y, origin_z FROM map_frame WHERE id = 1");
+  if (r.rows() == 0) return std::nullopt;
+  return MapFrame{r.Text(0, 0), Eigen::Vector3d(r.Real(0, 1), r.Real(0, 2), r.Real(0, 3))};
+}
+
+// Called under the prior-version lock (LockPriorVersions), so two first imports cannot both
+// store a frame; a different frame is a conflict and the caller's transaction rolls back.
+void CheckOrStoreFrame(pg::Connection& c, const MapFrame& frame) {
+  if (const auto stored = ReadFrame(c)) {
+    if (!SameFrame(*stored, frame))
+      throw Error(ErrorCode::kConflict, "prior version in frame " + Describe(frame) +
+                                            ", but the map's frame is " + Describe(*stored));
+    return;
+  }
+  c.Query("INSERT INTO map_frame (id, crs, origin_x, origin_y, origin_z) VALUES (1,$1,$2,$3,$4)",
+          pg::Params()
+              .Add(frame.crs)
+              .Add(frame.origin.x())
+              .Add(frame.origin.y())
+              .Add(frame.origin.z()));
+}
+
+}  // namespace
 
 int64_t PostgresPriorStore::CreateVersion(const PriorVersionRecord& meta,
                                           const std::vector<PriorTileRecord>& tiles,
@@ -11,6 +38,7 @@ int64_t PostgresPriorStore::CreateVersion(const PriorVersionRecord& meta,
   auto c = Connect();
   pg::Transaction tx(*c);
   const int64_t previous = pg_rows::LockPriorVersions(*c);
+  if (meta.frame) CheckOrStoreFrame(*c, *meta.frame);
   const int64_t version = previous + 1;
   c->Query(
       "INSERT INTO prior_versions (version, created_ms, source, parent, note, "
@@ -49,6 +77,11 @@ int64_t PostgresPriorStore::CreateVersion(const PriorVersionRecord& meta,
 std::optional<int64_t> PostgresPriorStore::LatestVersion() {
   auto c = Connect();
   return c->Query("SELECT MAX(version) FROM prior_versions").OptInt(0, 0);
+}
+
+std::optional<MapFrame> PostgresPriorStore::Frame() {
+  auto c = Connect();
+  return ReadFrame(*c);
 }
 
 std::vector<PriorVersionRecord> PostgresPriorStore::ListVersions() {

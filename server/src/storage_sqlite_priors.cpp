@@ -5,12 +5,40 @@
 #include "storage_sqlite.hpp"
 
 namespace mapdelta::server {
+namespace {
+
+std::optional<MapFrame> ReadFrame(sql::Db& db) {
+  sql::Stmt s(db, "SELECT crs, origin_x, origin_y, origin_z FROM map_frame WHERE id = 1");
+  if (!s.Step()) return std::nullopt;
+  return MapFrame{s.Text(0), Eigen::Vector3d(s.Real(1), s.Real(2), s.Real(3))};
+}
+
+// The first version with a frame stores it; a different one is a conflict (nothing written:
+// the caller's transaction rolls back).
+void CheckOrStoreFrame(sql::Db& db, const MapFrame& frame) {
+  if (const auto stored = ReadFrame(db)) {
+    if (!SameFrame(*stored, frame))
+      throw Error(ErrorCode::kConflict, "prior version in frame " + Describe(frame) +
+                                            ", but the map's frame is " + Describe(*stored));
+    return;
+  }
+  sql::Stmt s(db,
+              "INSERT INTO map_frame (id, crs, origin_x, origin_y, origin_z) VALUES (1,?,?,?,?)");
+  s.Bind(1, frame.crs)
+      .Bind(2, frame.origin.x())
+      .Bind(3, frame.origin.y())
+      .Bind(4, frame.origin.z());
+  s.Run();
+}
+
+}  // namespace
 
 int64_t SqlitePriorStore::CreateVersion(const PriorVersionRecord& meta,
                                         const std::vector<PriorTileRecord>& tiles,
                                         bool replace_all) {
   auto lock = Lock();
   sql::Transaction tx(db());
+  if (meta.frame) CheckOrStoreFrame(db(), *meta.frame);
   int64_t previous = 0;
   {
     sql::Stmt s(db(), "SELECT COALESCE(MAX(version), 0) FROM prior_versions");
@@ -78,6 +106,11 @@ std::optional<int64_t> SqlitePriorStore::LatestVersion() {
   sql::Stmt s(db(), "SELECT MAX(version) FROM prior_versions");
   if (!s.Step() || s.IsNull(0)) return std::nullopt;
   return s.Int(0);
+}
+
+std::optional<MapFrame> SqlitePriorStore::Frame() {
+  auto lock = Lock();
+  return ReadFrame(db());
 }
 
 std::vector<PriorVersionRecord> SqlitePriorStore::ListVersions() {

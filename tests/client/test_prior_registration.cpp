@@ -107,6 +107,33 @@ TEST_F(PriorRegistrationTest, StartupRecoversTwoMetresAndFiveDegrees) {
   }
 }
 
+// A georeferenced copy of the prior (UTM 32N, float64 PLY): the source picks a local origin,
+// hands out the same points relative to it, and the registration in that local frame lands
+// on the truth as it does near (0, 0), to the millimetre.
+TEST_F(PriorRegistrationTest, UtmPriorGivesTheSameRegistrationInItsLocalFrame) {
+  const Eigen::Vector3d utm(500000, 5400000, 100);
+  const std::string utm_path = mapdelta::testing::TempFilePath("mapdelta_client_utm.ply").string();
+  WriteCloud(utm_path, scene_, CloudFrame{utm, "EPSG:32632"});
+  FilePriorSource near_zero(path_, 0.4), georeferenced(utm_path, 0.4);
+  EXPECT_EQ(near_zero.MapOrigin(), Eigen::Vector3d::Zero());
+  // Middle of the extent rounded down to the 50 m grid; z is within the float32 bound.
+  const Eigen::Vector3d origin = georeferenced.MapOrigin();
+  EXPECT_EQ(origin, Eigen::Vector3d(500000, 5400000, 0));
+  const Eigen::Vector3d shift = utm - origin;  // local of the copy = local near 0 + shift
+  const SE3 truth = Pose(3.0, -1.0, 20.0);
+  SE3 truth_utm = truth;
+  truth_utm.translation() += shift;
+  const PointCloud local = LocalCloud(scene_, truth, 1);
+  PriorRegistrar a(RegistrationConfig{}, &near_zero), b(RegistrationConfig{}, &georeferenced);
+  const RegistrationOutcome ra = a.RefineInitialPose(local, Offset(truth, 2.0, 0.0, 5.0));
+  const RegistrationOutcome rb = b.RefineInitialPose(local, Offset(truth_utm, 2.0, 0.0, 5.0));
+  ASSERT_TRUE(ra.accepted && rb.accepted) << ra.reason << " / " << rb.reason;
+  EXPECT_LT((rb.T_map_body.translation() - shift - ra.T_map_body.translation()).norm(), 1e-3);
+  EXPECT_LT(RotationAngle(ra.T_map_body, rb.T_map_body), 1e-4);
+  // In map coordinates (local + origin) the copy's answer is the truth shifted into UTM.
+  EXPECT_LT((rb.T_map_body.translation() + origin - (truth.translation() + utm)).norm(), 0.1);
+}
+
 TEST_F(PriorRegistrationTest, RelocalizationRecoversLargerDriftWithinItsLimits) {
   FilePriorSource prior(path_, 0.4);
   const RegistrationConfig config;

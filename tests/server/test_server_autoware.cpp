@@ -15,6 +15,7 @@
 
 #include "autoware_map.hpp"
 #include "autoware_metadata.hpp"
+#include "autoware_projector.hpp"
 #include "blob_codec.hpp"
 #include "changed_scene.hpp"
 #include "mapdelta/common/cloud_io.hpp"
@@ -66,7 +67,8 @@ struct AutowareFixture : ::testing::Test {
 
   // Exports version 1 into dir/name and returns that folder.
   fs::path Export(const std::string& name, double tile_size_m) {
-    ExportAutowareMap(service->storage().priors(), 1, tile_size_m, (dir / name).string());
+    ExportAutowareMap(service->storage().priors(), 1, tile_size_m, (dir / name).string(),
+                      service->Frame());
     return dir / name;
   }
 
@@ -134,6 +136,10 @@ TEST_F(AutowareFixture, MetadataListsEveryTileWithItsBox) {
     std::set<std::string> files;
     for (const auto& e : fs::directory_iterator(out)) files.insert(e.path().filename().string());
     files.erase(kAutowareMetadataFile);
+    // The map's frame beside the tiles: this map is local (origin 0, no CRS).
+    EXPECT_EQ(files.erase(kAutowareProjectorFile), 1u);
+    EXPECT_NE(ReadText(out / kAutowareProjectorFile).find("projector_type: Local"),
+              std::string::npos);
     EXPECT_EQ(files, listed);  // nothing written that the metadata does not list
   }
   // The scene spans x [-30, 70), y [-10, 40): tiles of 20 m from x -40 to 80, y -20 to 40.
@@ -189,7 +195,7 @@ TEST_F(AutowareFixture, PointOutsideItsTileBoxIsRefusedNamingTheFile) {
 
 TEST_F(AutowareFixture, ExportRefusesAnUnknownVersionAndAFolderInUse) {
   try {
-    ExportAutowareMap(service->storage().priors(), 2, 20, (dir / "v2").string());
+    ExportAutowareMap(service->storage().priors(), 2, 20, (dir / "v2").string(), service->Frame());
     ADD_FAILURE();
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::kNotFound);
@@ -197,7 +203,7 @@ TEST_F(AutowareFixture, ExportRefusesAnUnknownVersionAndAFolderInUse) {
   }
   // A folder with anything in it is left alone (dir holds prior.pcd).
   try {
-    ExportAutowareMap(service->storage().priors(), 1, 20, dir.string());
+    ExportAutowareMap(service->storage().priors(), 1, 20, dir.string(), service->Frame());
     ADD_FAILURE();
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::kConflict);

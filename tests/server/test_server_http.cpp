@@ -105,7 +105,7 @@ TEST_P(ServerHttpTest, AuthRolesAnd401Vs403) {
   // The OpenAPI document is served and names every route the server has.
   auto doc = client_->Get("/v1/openapi.yaml");
   ASSERT_TRUE(doc && doc->status == 200);
-  for (const char* route : {"/v1/sessions/{session_id}/keyframes/{seq}:",
+  for (const char* route : {"/v1/map:", "/v1/sessions/{session_id}/keyframes/{seq}:",
                             "/v1/changes/tiles/{tile}:", "/v1/admin/jobs/{job_id}/cancel:"}) {
     EXPECT_NE(doc->body.find(route), std::string::npos) << route;
   }

@@ -181,6 +181,7 @@ TEST_F(HttpProtocolTest, UnknownQueryParametersAreRefusedOnEveryRoute) {
       {"GET", "/v1/sessions/1", vehicle_},
       {"GET", "/v1/prior/tiles?x=0&y=0", vehicle_},
       {"GET", "/v1/prior/tiles/0_0", vehicle_},
+      {"GET", "/v1/map", reader_},
       {"GET", "/v1/prior/versions", vehicle_},
       {"GET", "/v1/changes/tiles?bbox=0,0,1,1", reader_},
       {"GET", "/v1/changes/tiles/0_0", reader_},

@@ -126,6 +126,52 @@ TEST_P(StorageContract, PriorTileListingFiltersByTileRectAndOrdersByIxThenIy) {
   EXPECT_EQ(listed[2].point_count, 2);
 }
 
+// ---------------------------------------------------------------- the map's frame
+
+MapFrame Utm(double x, double y, double z) {
+  return MapFrame{"EPSG:32632", Eigen::Vector3d(x, y, z)};
+}
+
+TEST_P(StorageContract, MapFrameIsSetByTheFirstVersionCarryingOneAndReadBackExactly) {
+  PriorStore& priors = s().priors();
+  EXPECT_FALSE(priors.Frame());
+  priors.CreateVersion(Import(1), {PriorTile(0, 0, 3)}, true);  // a version without a frame
+  EXPECT_FALSE(priors.Frame());
+  PriorVersionRecord second = Import(2);
+  // Not representable in float32, and a digit past what 15 significant digits keep.
+  second.frame = Utm(500000.123456789, 5400000.987654321, 100.0000001);
+  priors.CreateVersion(second, {PriorTile(0, 0, 4)}, true);
+  const auto frame = priors.Frame();
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->crs, "EPSG:32632");
+  EXPECT_EQ(frame->origin.x(), 500000.123456789);  // bit for bit: doubles in, doubles out
+  EXPECT_EQ(frame->origin.y(), 5400000.987654321);
+  EXPECT_EQ(frame->origin.z(), 100.0000001);
+  PriorVersionRecord same = Import(3);
+  same.frame = second.frame;
+  EXPECT_EQ(priors.CreateVersion(same, {PriorTile(0, 0, 5)}, true), 3);
+  EXPECT_EQ(priors.CreateVersion(Import(4), {PriorTile(0, 0, 6)}, true), 4);  // none: kept
+  EXPECT_EQ(priors.Frame()->origin, second.frame->origin);
+}
+
+TEST_P(StorageContract, PriorVersionInADifferentFrameWritesNothing) {
+  PriorStore& priors = s().priors();
+  PriorVersionRecord first = Import(1);
+  first.frame = Utm(500000, 5400000, 100);
+  priors.CreateVersion(first, {PriorTile(0, 0, 3)}, true);
+  for (const MapFrame& other :
+       {Utm(500000.001, 5400000, 100), MapFrame{"EPSG:32633", first.frame->origin}}) {
+    PriorVersionRecord second = Import(2);
+    second.frame = other;
+    ExpectError(ErrorCode::kConflict,
+                [&] { priors.CreateVersion(second, {PriorTile(1, 1, 4)}, true); });
+  }
+  EXPECT_EQ(priors.LatestVersion(), 1);
+  EXPECT_FALSE(priors.GetTile(TileId(1, 1), 5));
+  EXPECT_EQ(priors.Frame()->crs, "EPSG:32632");
+  EXPECT_EQ(priors.Frame()->origin, first.frame->origin);
+}
+
 TEST_P(StorageContract, PriorVersionWithATileTwiceWritesNothing) {
   s().priors().CreateVersion(Import(1), {PriorTile(0, 0, 3)}, true);
   ExpectError(ErrorCode::kConflict, [&] {

@@ -223,7 +223,7 @@ TEST_P(StorageContract, ChangesOfAJobMarkItsTilesAndReplaceEarlierOnes) {
 
 // A prior of two tiles, both aggregated and classified, and a running refresh job.
 int64_t SetUpRefresh(Storage& s, int64_t session) {
-  s.priors().CreateVersion(PriorVersionRecord{0, 1, PriorSource::kImport, "v1", {}, {}},
+  s.priors().CreateVersion(PriorVersionRecord{0, 1, PriorSource::kImport, "v1", {}, {}, {}},
                            {PriorTileRecord{TileId(0, 0), 0, 3, Bytes{1}},
                             PriorTileRecord{TileId(1, 0), 0, 4, Bytes{2}}},
                            true);

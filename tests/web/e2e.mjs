@@ -1,7 +1,8 @@
 #!/usr/bin/env node
 // End-to-end test of the web map against the real mapdelta-server:
 //   1. start the server on a free loopback port with a fresh database, serving web/dist;
-//   2. import a small box-scene prior and upload one vehicle session of the changed scene;
+//   2. import a small box-scene prior and upload one vehicle session of the changed scene, in
+//      UTM coordinates (scene.mjs MAP_ORIGIN: the page must find a map far from (0, 0));
 //   3. check over REST that the changed tile is found where the scene changed (analytic truth);
 //   4. drive headless Chromium over the page (list -> 3D view -> pixels -> refresh -> before/after).
 // Usage: node e2e.mjs --server BIN --web-root DIR --out DIR [--screenshot FILE]
@@ -56,7 +57,10 @@ async function main() {
     // REST oracle: the changed tile is the one the scene changed, and its new/removed points
     // lie on the added/removed box (margin: 0.8 m voxels + th_ch).
     const reader = api(base, tokens.reader);
-    const list = await reader.get('/v1/changes/tiles?bbox=-200,-200,300,300');
+    const map = await reader.get('/v1/map');
+    check(map.crs === S.MAP_CRS && map.origin.join() === S.MAP_ORIGIN.join(), `GET /v1/map names the frame (${JSON.stringify(map)})`);
+    const bbox = [...S.toMap([-200, -200]), ...S.toMap([300, 300])].join(',');
+    const list = await reader.get(`/v1/changes/tiles?bbox=${bbox}`);
     log(`changed tiles: ${JSON.stringify(list.tiles ?? list)}`);
     const row = (list.tiles ?? []).find((t) => t.tile === S.CHANGED_TILE);
     check(row, `tile ${S.CHANGED_TILE} is listed as changed`);
@@ -80,6 +84,7 @@ async function main() {
       expected: {
         tile: S.CHANGED_TILE, new_points: newCount, removed_points: rmCount,
         prior_version: list.prior_version, prior_points_before: priorV1.length / 3,
+        origin: S.MAP_ORIGIN,
       },
       screenshots: { main: path.join(shotDir, 'web-map.png'), before: path.join(shotDir, 'web-map-before.png') },
     });

@@ -104,7 +104,9 @@ export async function runPageChecks({ baseUrl, adminToken, readerToken, vehicleT
       await page.mouse.down();
       await page.mouse.move(to, tv.y + tv.height / 2, { steps: 8 });
       await page.mouse.up();
-      return new URL((await req).url()).searchParams.get('bbox').split(',').map(Number);
+      // Requested in map (UTM) coordinates; compared in the scene's local ones.
+      const box = new URL((await req).url()).searchParams.get('bbox').split(',').map(Number);
+      return box.map((v, i) => v - expected.origin[i % 2]);
     };
     const away = await drag(tv.x + 10, tv.x + tv.width - 10);
     await page.waitForFunction(() => document.querySelector('#tile-list tbody').children.length === 0, null, { timeout: 10000 });

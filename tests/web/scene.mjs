@@ -5,6 +5,12 @@
 import { deflateSync } from 'node:zlib';
 
 export const TILE_SIZE = 50;
+// The scene is served as a georeferenced map (UTM 32N, issue #24): every coordinate sent to
+// the server is the scene's plus this origin, so the page must find the map far from (0, 0).
+// Tile ids, PCD tiles and the page's drawing stay local (relative to it).
+export const MAP_ORIGIN = [500000, 5400000, 100];
+export const MAP_CRS = 'EPSG:32632';
+export const toMap = (p) => p.map((v, a) => v + MAP_ORIGIN[a]);
 export const CHANGED_TILE = '1_0';
 const GROUND = { min: [0, -20, -1], max: [100, 50, 0] };          // top face is z = 0
 const WALL = { min: [0, 34, 0], max: [100, 36, 14] };             // backdrop for the rays

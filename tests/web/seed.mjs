@@ -27,8 +27,9 @@ export function api(base, token) {
 }
 
 export async function importPrior(base, adminToken, log) {
-  const points = S.sampleBoxes(S.PRIOR_BOXES, 0.5);
-  const r = await call(base, adminToken, 'POST', '/v1/admin/prior?format=pcd',
+  const points = S.sampleBoxes(S.PRIOR_BOXES, 0.5).map(S.toMap);
+  const frame = `origin=${S.MAP_ORIGIN.join(',')}&crs=${S.MAP_CRS}`;
+  const r = await call(base, adminToken, 'POST', `/v1/admin/prior?format=pcd&${frame}`,
     { body: S.pcdAscii(points), type: 'application/octet-stream' });
   log(`prior imported: ${points.length} points -> ${JSON.stringify(r)}`);
   return r;
@@ -45,7 +46,7 @@ export async function uploadSession(base, vehicleToken, log, { timeoutMs = 12000
     const form = new FormData();
     const meta = {
       t_ns: 1_000_000_000 + seq * 200_000_000,
-      T_map_cam: { t: pos, q: S.Q_MAP_CAM },
+      T_map_cam: { t: S.toMap(pos), q: S.Q_MAP_CAM },
       covariance: null,
     };
     form.append('meta', new Blob([JSON.stringify(meta)], { type: 'application/json' }), 'meta.json');

@@ -61,6 +61,11 @@ export class Api {
     return { tiles, priorVersion, tileSize, complete };
   }
 
+  // The map's frame (CRS, origin), extent and prior version (web/src/mapframe.js).
+  async map() {
+    return this.request('/v1/map');
+  }
+
   async priorTilesNear(x, y, radius) {
     const q = new URLSearchParams({ x: x.toFixed(2), y: y.toFixed(2), radius: radius.toFixed(1) });
     const j = await this.request(`/v1/prior/tiles?${q}`);

@@ -4,6 +4,7 @@ import './style.css';
 import { Api, ApiError } from './api.js';
 import { parseCloud } from './cloudparse.js';
 import { legendHtml } from './colors.js';
+import { LOCAL_FRAME, frameOf, initialBox, localXyz, toMapBox } from './mapframe.js';
 import { observedFootprint } from './octomap.js';
 import { renderEvidence, summarizeReport } from './evidence.js';
 import { runRefresh } from './jobs.js';
@@ -14,7 +15,10 @@ import { TileView3D } from './tileview3d.js';
 const TOKEN_KEY = 'mapdelta.token';
 const $ = (id) => document.getElementById(id);
 const api = new Api(() => localStorage.getItem(TOKEN_KEY) || '');
-const state = { priorVersion: null, tileSize: 50, summaries: new Map(), refreshed: new Set(), tile: null, version: null };
+const state = {
+  priorVersion: null, tileSize: 50, summaries: new Map(), refreshed: new Set(), tile: null, version: null,
+  frame: LOCAL_FRAME,   // the page works in local metres (mapframe.js)
+};
 let loadSeq = 0;
 
 function status(text, isError = false) {
@@ -39,17 +43,18 @@ function setPriorVersion(v) {
   $('before-after').disabled = v < 2;
 }
 
-// Only the tiles in the visible box are requested; prior tiles are skipped when zoomed out
-// so far that they would be sub-pixel anyway.
-async function loadView(bbox) {
+// Only the tiles in the visible box (local) are requested, in the map's coordinates; prior
+// tiles are skipped when zoomed out so far that they would be sub-pixel anyway.
+async function loadView(localBox) {
   if (!localStorage.getItem(TOKEN_KEY)) return;
   const seq = ++loadSeq;
   try {
     const minConf = Number($('min-confidence').value) || 0;
+    const bbox = toMapBox(state.frame, localBox);
     const changes = await api.changedTiles(bbox, minConf);
     const w = bbox[2] - bbox[0], h = bbox[3] - bbox[1];
     const prior = (w * h) / (state.tileSize ** 2) < 2500
-      ? await api.priorTilesNear((bbox[0] + bbox[2]) / 2, (bbox[1] + bbox[3]) / 2, Math.hypot(w, h) / 2)
+      ? await api.priorTilesNear((bbox[0] + bbox[2]) / 2, (bbox[1] + bbox[3]) / 2, Math.min(Math.hypot(w, h) / 2, 1e4))
       : { tiles: [] };
     if (seq !== loadSeq) return;   // a newer view superseded this one
     setPriorVersion(changes.priorVersion ?? prior.priorVersion);
@@ -79,12 +84,23 @@ async function loadView(bbox) {
   }
 }
 
-// First view: ask once over a wide box where the changes and the prior tiles are, then fit.
+// First view: the prior's extent from GET /v1/map (wherever the map is: UTM or near 0).
+// Without a prior, ask once over a wide box around the origin where changes are, then fit.
 async function discover() {
   try {
-    const wide = [-1e4, -1e4, 1e4, 1e4];   // the server's radius limit is 10 km
+    const map = await api.map();
+    state.frame = frameOf(map);
+    state.tileSize = map.tile_size_m ?? state.tileSize;
+    top.tileSize = state.tileSize;
+    setPriorVersion(map.prior_version);
+    $('map-frame').textContent = state.frame.crs || (state.frame.origin.some((v) => v !== 0)
+      ? `origin ${state.frame.origin.join(', ')}` : '');
+    const box = initialBox(state.frame);
+    if (box) { top.fitTo(box); return; }
+    const wide = toMapBox(state.frame, [-1e4, -1e4, 1e4, 1e4]);   // the server's radius limit is 10 km
     const [changes, prior] = await Promise.all([
-      api.changedTiles(wide, 0, 1), api.priorTilesNear(0, 0, 1e4).catch(() => ({ tiles: [] }))]);
+      api.changedTiles(wide, 0, 1),
+      api.priorTilesNear(state.frame.origin[0], state.frame.origin[1], 1e4).catch(() => ({ tiles: [] }))]);
     state.tileSize = changes.tileSize ?? prior.tileSize ?? state.tileSize;
     top.tileSize = state.tileSize;
     setPriorVersion(changes.priorVersion ?? prior.priorVersion);
@@ -123,8 +139,8 @@ async function pickTile(tile) {
     const facts = summarizeReport(report, summary ?? { tile, state: state.refreshed.has(tile) ? 'refreshed' : 'none' });
     renderEvidence($('evidence'), facts);
     loadSessionDetails(tile, facts);
-    view.setLayer('new', changeXyz(report.new));
-    view.setLayer('removed', changeXyz(report.removed));
+    view.setLayer('new', localXyz(state.frame, report.new));
+    view.setLayer('removed', localXyz(state.frame, report.removed));
     await loadPrior(tile, state.version ?? state.priorVersion);
     if ($('show-observed').checked) await loadObserved(tile);
     view.frame();
@@ -136,13 +152,6 @@ async function pickTile(tile) {
     view.info(`${tile}: ${e.message}`);
     status(e.message, true);
   }
-}
-
-function changeXyz(list) {
-  if (!Array.isArray(list) || list.length === 0) return null;
-  const xyz = new Float32Array(list.length * 3);
-  list.forEach((c, i) => xyz.set(c.p, i * 3));
-  return xyz;
 }
 
 // Vehicle and commit time of the sessions behind the evidence (at most 50 looked up).
@@ -239,7 +248,7 @@ async function start() {
 }
 
 // For benchmarks and debugging from the console (bench/web/bench_web_tile.mjs).
-window.mapdelta = { api, view, top, state, parseCloud };
+window.mapdelta = { api, view, top, state, parseCloud, toMapBox };
 
 $('token-form').addEventListener('submit', (e) => {
   e.preventDefault();

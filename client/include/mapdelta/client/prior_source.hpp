@@ -2,8 +2,15 @@
 // Where the prior map comes from: a local PCD/PLY file (offline mode) or the server's prior
 // tiles around the vehicle (GET /v1/prior/tiles?x=&y=&radius=, then each tile as PCD), cached
 // on disk per prior version and refreshed when the vehicle moves into other tiles.
+//
+// Frames: the client's float math (GICP, fusion, clouds) runs in a local frame, map
+// coordinates minus MapOrigin(), so a georeferenced (UTM) prior keeps its millimetres. The
+// server's origin comes from GET /v1/map and its PCD tiles are already local; a prior file's
+// origin is chosen from the file (0 for a map near (0, 0)). Callers convert once at the
+// edges: an initial pose in map coordinates minus the origin, uploaded poses plus it.
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +27,8 @@ class PriorSource {
   virtual PointCloud CloudAround(double x, double y, double radius_m) = 0;
   // Changes each time CloudAround would return a different set of points (new tiles).
   virtual std::string Key(double x, double y, double radius_m) = 0;
+  // Where the local frame of CloudAround's points and (x, y) sits in map coordinates.
+  virtual Eigen::Vector3d MapOrigin() = 0;
 };
 
 class FilePriorSource : public PriorSource {
@@ -28,10 +37,12 @@ class FilePriorSource : public PriorSource {
   FilePriorSource(const std::string& path, double voxel_m, double tile_size_m = 50.0);
   PointCloud CloudAround(double x, double y, double radius_m) override;
   std::string Key(double x, double y, double radius_m) override;
+  Eigen::Vector3d MapOrigin() override { return origin_; }
   size_t size() const { return cloud_.size(); }
 
  private:
-  PointCloud cloud_;
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
+  PointCloud cloud_;  // local
   TileGrid grid_;
 };
 
@@ -40,6 +51,8 @@ class ServerPriorSource : public PriorSource {
   ServerPriorSource(HttpTransport* transport, const std::string& cache_dir, double voxel_m);
   PointCloud CloudAround(double x, double y, double radius_m) override;
   std::string Key(double x, double y, double radius_m) override;
+  // The map's origin from GET /v1/map (asked once). Throws Error(kIo / kParse).
+  Eigen::Vector3d MapOrigin() override;
   size_t tiles_downloaded() const { return downloaded_; }
 
  private:
@@ -57,6 +70,7 @@ class ServerPriorSource : public PriorSource {
   std::map<std::string, Listing> listings_;   // listing per query key
   size_t downloaded_ = 0;
   TileGrid grid_{50.0};
+  std::optional<Eigen::Vector3d> origin_;
 };
 
 }  // namespace mapdelta::client

@@ -16,7 +16,10 @@
 namespace mapdelta::client {
 
 // The meta JSON of docs/api.md: {"t_ns", "T_map_cam": {"t", "q": [qw,qx,qy,qz]}, "covariance"}.
-std::string KeyframeMetaJson(const Keyframe& keyframe);
+// The keyframe's pose is local (prior_source.hpp); the JSON's is in map coordinates, the
+// local one + map_origin, added in double.
+std::string KeyframeMetaJson(const Keyframe& keyframe,
+                             const Eigen::Vector3d& map_origin = Eigen::Vector3d::Zero());
 
 struct UploadReport {
   size_t uploaded = 0;   // acknowledged keyframes (including identical retries)
@@ -33,6 +36,9 @@ class Uploader {
   Uploader(const UploadConfig& config, const PinholeCamera& camera, UploadQueue* queue,
            HttpTransport* transport);
 
+  // Where the keyframes' local frame sits in map coordinates (PriorSource::MapOrigin); set
+  // before the first Enqueue.
+  void SetMapOrigin(const Eigen::Vector3d& origin) { map_origin_ = origin; }
   // Encodes and enqueues a keyframe (durable on return). Thread-safe with Run.
   int64_t Enqueue(const Keyframe& keyframe);
 
@@ -52,6 +58,7 @@ class Uploader {
   PinholeCamera camera_;
   UploadQueue* queue_;
   HttpTransport* transport_;
+  Eigen::Vector3d map_origin_ = Eigen::Vector3d::Zero();
   std::optional<std::chrono::steady_clock::time_point>
       failing_since_;  // of the current failure streak
 };

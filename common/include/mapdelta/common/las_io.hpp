@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "mapdelta/common/point_cloud.hpp"
+#include "mapdelta/common/precise_cloud.hpp"
 
 namespace mapdelta {
 
@@ -22,6 +23,8 @@ struct LasWriteOptions {
 // and the header field for a malformed or truncated file, Error(kUnsupported) for LAZ or
 // other versions. Points are returned in metres (X * scale + offset).
 PointCloud ParseLas(std::string_view bytes, const std::string& path);
+// The same in double: X * scale + offset without rounding to float32 (georeferenced files).
+PrecisePointCloud ParseLasPrecise(std::string_view bytes, const std::string& path);
 // The file's bytes. Throws Error(kInvalidArgument) when a coordinate does not fit the int32
 // range at `scale_m` around the offset.
 std::string EncodeLas(const PointCloud& cloud, const LasWriteOptions& options = {});

@@ -11,8 +11,10 @@
 #include <string>
 #include <thread>
 
+#include "mapdelta/common/precise_cloud.hpp"
 #include "mapdelta/server/api_error.hpp"
 #include "mapdelta/server/config.hpp"
+#include "mapdelta/server/map_frame.hpp"
 #include "mapdelta/server/metrics.hpp"
 #include "mapdelta/server/storage.hpp"
 
@@ -50,9 +52,21 @@ class MapService {
   Json CommitSession(int64_t session_id);
   Json GetSession(int64_t session_id);
 
+  // --- the map's frame (map_frame.hpp): user coordinates = local + origin
+  // The stored frame; a map without one (before any import, or from before frames) is at
+  // origin 0 without a CRS.
+  MapFrame Frame();
+  // GET /v1/map: CRS, origin, extent of the latest prior (user coordinates), version.
+  Json GetMap();
+
   // --- prior map
-  Json ImportPrior(const Bytes& cloud_bytes, const std::string& format, const std::string& note);
-  Json ImportPriorFile(const std::string& path, const std::string& note);
+  // Points in user coordinates; the first import sets the map's frame (see map_frame.hpp),
+  // later ones must agree with it. Refuses, storing nothing, a cloud with a point farther than
+  // kMaxLocalCoordinateM from the origin (float32 would round it by more than 0.25 mm).
+  Json ImportPrior(const Bytes& cloud_bytes, const std::string& format, const std::string& note,
+                   const FrameRequest& frame = {});
+  Json ImportPriorFile(const std::string& path, const std::string& note,
+                       const FrameRequest& frame = {});
   Json ListPriorTilesNear(double x, double y, double radius_m, std::optional<int64_t> version);
   FilePayload GetPriorTile(const std::string& tile, std::optional<int64_t> version,
                            const std::string& format);
@@ -89,6 +103,11 @@ class MapService {
   void WorkerLoop();
   bool RunOneJob();
   int64_t RequirePriorVersion();
+  // An uploaded pose (user coordinates) in the local frame; ApiError(kInvalidArgument) if its
+  // position is beyond kMaxLocalCoordinateM of the origin.
+  SE3 LocalPose(const SE3& T_map_cam_user);
+  MapFrame ResolveImportFrame(const FrameRequest& request, const PrecisePointCloud& user_points,
+                              bool* chosen);
 
   ServerConfig config_;
   std::unique_ptr<Storage> storage_;
@@ -97,6 +116,8 @@ class MapService {
   std::thread worker_;
   std::mutex wake_mutex_;
   std::condition_variable wake_;
+  std::mutex frame_mutex_;
+  std::optional<MapFrame> frame_;  // cached once stored: a map's frame never changes
 };
 
 }  // namespace mapdelta::server

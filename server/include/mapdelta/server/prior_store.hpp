@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "mapdelta/common/tiling.hpp"
+#include "mapdelta/server/map_frame.hpp"
 #include "mapdelta/server/states.hpp"
 #include "mapdelta/server/storage_types.hpp"
 
@@ -19,6 +20,10 @@ struct PriorVersionRecord {
   PriorSource source = PriorSource::kImport;
   std::string note;
   std::optional<int64_t> parent, job_id;
+  // CreateVersion only: the frame this version's points are local to. The first version that
+  // carries one sets the map's frame (Frame()); later ones must carry the same (SameFrame).
+  // Versions without one (refresh) stay in the stored frame.
+  std::optional<MapFrame> frame;
 };
 
 struct PriorTileRecord {
@@ -34,10 +39,13 @@ class PriorStore {
   // Creates version latest + 1 (parent = latest) with these tiles, atomically. If replace_all,
   // tiles with points at the previous version that are absent here get an empty row (no
   // points) so they read as empty at the new version. Throws Error(kConflict), writing
-  // nothing, if a tile appears twice.
+  // nothing, if a tile appears twice, or if meta.frame differs from the stored frame.
   virtual int64_t CreateVersion(const PriorVersionRecord& meta,
                                 const std::vector<PriorTileRecord>& tiles, bool replace_all) = 0;
   virtual std::optional<int64_t> LatestVersion() = 0;
+  // The map's frame, or nullopt until a version carrying one was created (maps from before
+  // frames existed: their points are in unnamed coordinates at origin 0).
+  virtual std::optional<MapFrame> Frame() = 0;
   virtual std::vector<PriorVersionRecord> ListVersions() = 0;  // by version
   // The tile's row at that version (possibly an empty row), or nullopt if it never had one.
   virtual std::optional<PriorTileRecord> GetTile(const TileId& tile, int64_t version) = 0;

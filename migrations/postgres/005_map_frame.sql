@@ -1,0 +1,8 @@
+-- 005 for PostgreSQL (see ../005_map_frame.sql): the map's frame, one row at most.
+CREATE TABLE map_frame (
+  id BIGINT PRIMARY KEY CHECK (id = 1),
+  crs TEXT NOT NULL,
+  origin_x DOUBLE PRECISION NOT NULL,
+  origin_y DOUBLE PRECISION NOT NULL,
+  origin_z DOUBLE PRECISION NOT NULL
+);
