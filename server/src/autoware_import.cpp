@@ -68,8 +68,8 @@ void MergeProjector(const fs::path& dir, FrameRequest* request) {
   if (stated.origin && request->origin &&
       !SameFrame({"", *stated.origin}, {"", *request->origin})) {
     throw Error(ErrorCode::kInvalidArgument,
-                path.string() + ": origin " + Describe({"", *stated.origin}) +
-                    " disagrees with the requested " + Describe({"", *request->origin}));
+                path.string() + ": origin " + DescribeOrigin(*stated.origin) +
+                    " disagrees with the requested " + DescribeOrigin(*request->origin));
   }
   if (stated.crs) request->crs = stated.crs;
   if (stated.origin) request->origin = stated.origin;

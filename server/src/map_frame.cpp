@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "mapdelta/common/error.hpp"
 #include "mapdelta/common/number_text.hpp"
 
 namespace mapdelta::server {
@@ -11,10 +12,21 @@ bool SameFrame(const MapFrame& a, const MapFrame& b) {
   return a.crs == b.crs && (a.origin - b.origin).cwiseAbs().maxCoeff() <= 1e-6;
 }
 
+void RequireSameFrame(const MapFrame& stored, const MapFrame& frame) {
+  if (!SameFrame(stored, frame)) {
+    throw Error(ErrorCode::kConflict, "prior version in frame " + Describe(frame) +
+                                          ", but the map's frame is " + Describe(stored));
+  }
+}
+
+std::string DescribeOrigin(const Eigen::Vector3d& origin) {
+  return "(" + ShortestNumber(origin.x()) + ", " + ShortestNumber(origin.y()) + ", " +
+         ShortestNumber(origin.z()) + ")";
+}
+
 std::string Describe(const MapFrame& frame) {
-  return (frame.crs.empty() ? std::string("no CRS") : frame.crs) + ", origin (" +
-         ShortestNumber(frame.origin.x()) + ", " + ShortestNumber(frame.origin.y()) + ", " +
-         ShortestNumber(frame.origin.z()) + ")";
+  return (frame.crs.empty() ? std::string("no CRS") : frame.crs) + ", origin " +
+         DescribeOrigin(frame.origin);
 }
 
 std::optional<Eigen::Vector3d> ParseOrigin(const std::string& text) {

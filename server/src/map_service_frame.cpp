@@ -27,7 +27,7 @@ std::string Disagreement(const FrameRequest& request, const MapFrame& stored) {
   if (request.crs && *request.crs != stored.crs)
     return "CRS '" + *request.crs + "' differs from the map's '" + stored.crs + "'";
   if (request.origin && !SameFrame(MapFrame{stored.crs, *request.origin}, stored))
-    return "origin " + Describe(MapFrame{stored.crs, *request.origin}) + " differs";
+    return "origin " + DescribeOrigin(*request.origin) + " differs";
   return "";
 }
 

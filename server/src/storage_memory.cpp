@@ -104,10 +104,7 @@ int64_t MemoryPriorStore::CreateVersion(const PriorVersionRecord& meta,
                   "prior version: tile " + tile.tile.ToString() + " given twice");
     }
   }
-  if (meta.frame && t().map_frame && !SameFrame(*t().map_frame, *meta.frame)) {
-    throw Error(ErrorCode::kConflict, "prior version in frame " + Describe(*meta.frame) +
-                                          ", but the map's frame is " + Describe(*t().map_frame));
-  }
+  if (meta.frame && t().map_frame) RequireSameFrame(*t().map_frame, *meta.frame);
   if (meta.frame && !t().map_frame) t().map_frame = meta.frame;
   const int64_t previous = t().prior_versions.empty() ? 0 : t().prior_versions.rbegin()->first;
   const int64_t version = previous + 1;

@@ -16,12 +16,7 @@ std::optional<MapFrame> ReadFrame(pg::Connection& c) {
 // Called under the prior-version lock (LockPriorVersions), so two first imports cannot both
 // store a frame; a different frame is a conflict and the caller's transaction rolls back.
 void CheckOrStoreFrame(pg::Connection& c, const MapFrame& frame) {
-  if (const auto stored = ReadFrame(c)) {
-    if (!SameFrame(*stored, frame))
-      throw Error(ErrorCode::kConflict, "prior version in frame " + Describe(frame) +
-                                            ", but the map's frame is " + Describe(*stored));
-    return;
-  }
+  if (const auto stored = ReadFrame(c)) return RequireSameFrame(*stored, frame);
   c.Query("INSERT INTO map_frame (id, crs, origin_x, origin_y, origin_z) VALUES (1,$1,$2,$3,$4)",
           pg::Params()
               .Add(frame.crs)

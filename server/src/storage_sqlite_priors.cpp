@@ -16,12 +16,7 @@ std::optional<MapFrame> ReadFrame(sql::Db& db) {
 // The first version with a frame stores it; a different one is a conflict (nothing written:
 // the caller's transaction rolls back).
 void CheckOrStoreFrame(sql::Db& db, const MapFrame& frame) {
-  if (const auto stored = ReadFrame(db)) {
-    if (!SameFrame(*stored, frame))
-      throw Error(ErrorCode::kConflict, "prior version in frame " + Describe(frame) +
-                                            ", but the map's frame is " + Describe(*stored));
-    return;
-  }
+  if (const auto stored = ReadFrame(db)) return RequireSameFrame(*stored, frame);
   sql::Stmt s(db,
               "INSERT INTO map_frame (id, crs, origin_x, origin_y, origin_z) VALUES (1,?,?,?,?)");
   s.Bind(1, frame.crs)

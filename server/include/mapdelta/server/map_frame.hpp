@@ -26,8 +26,12 @@ constexpr double kMaxLocalCoordinateM = 8192;
 // Same CRS text and origins within 1 micrometre (origins that went through text or a
 // projection and back); 1 um shifts no stored float32 coordinate by more than rounding.
 bool SameFrame(const MapFrame& a, const MapFrame& b);
+// For the stores: throws Error(kConflict) naming both frames unless SameFrame.
+void RequireSameFrame(const MapFrame& stored, const MapFrame& frame);
 // "EPSG:32632, origin (500000, 5400000, 100)" or "no CRS, origin (0, 0, 0)", for errors.
 std::string Describe(const MapFrame& frame);
+// "(500000, 5400000, 100)".
+std::string DescribeOrigin(const Eigen::Vector3d& origin);
 
 // What an import asks for (CLI --origin/--crs, POST /v1/admin/prior ?origin=&crs=, an
 // Autoware map_projector_info.yaml); a part not given is the map's, or chosen at the first
