@@ -1,4 +1,4 @@
--- 005: the map's frame (issue #24): the CRS name its users' coordinates are in and the
+-- 006: the map's frame (issue #24): the CRS name its users' coordinates are in and the
 -- origin, in those coordinates, that every stored point, pose and tile is relative to
 -- (user = local + origin). One row at most (id = 1), written with the first prior version
 -- that carries a frame and never changed afterwards. No row: a map from before frames, in

@@ -1,4 +1,4 @@
--- 005 for PostgreSQL (see ../005_map_frame.sql): the map's frame, one row at most.
+-- 006 for PostgreSQL (see ../006_map_frame.sql): the map's frame, one row at most.
 CREATE TABLE map_frame (
   id BIGINT PRIMARY KEY CHECK (id = 1),
   crs TEXT NOT NULL,
