@@ -54,61 +54,41 @@ struct PcdHeader {
   std::array<double, 7> viewpoint = {0, 0, 0, 1, 0, 0, 0};  // PCL's default
 };
 
-// Converts one value of a field stored at p (little-endian host, as PCL writes it).
+// One value of type T stored at p (unaligned), as a double.
+template <typename T>
+double Load(const char* p) {
+  T v;
+  std::memcpy(&v, p, sizeof v);
+  return static_cast<double>(v);
+}
+
+// Converts one value of a field stored at p (little-endian host, as PCL writes it); the header
+// check allows sizes 4 and 8 for F and 1, 2, 4 and 8 for I and U.
 double ReadValue(const char* p, const Field& f) {
   switch (f.type) {
     case 'F':
-      if (f.size == 4) {
-        float v;
-        std::memcpy(&v, p, 4);
-        return v;
-      }
-      {
-        double v;
-        std::memcpy(&v, p, 8);
-        return v;
-      }
+      return f.size == 4 ? Load<float>(p) : Load<double>(p);
     case 'I':
-      if (f.size == 1) {
-        int8_t v;
-        std::memcpy(&v, p, 1);
-        return v;
-      }
-      if (f.size == 2) {
-        int16_t v;
-        std::memcpy(&v, p, 2);
-        return v;
-      }
-      if (f.size == 4) {
-        int32_t v;
-        std::memcpy(&v, p, 4);
-        return v;
-      }
-      {
-        int64_t v;
-        std::memcpy(&v, p, 8);
-        return static_cast<double>(v);
+      switch (f.size) {
+        case 1:
+          return Load<int8_t>(p);
+        case 2:
+          return Load<int16_t>(p);
+        case 4:
+          return Load<int32_t>(p);
+        default:
+          return Load<int64_t>(p);
       }
     default:
-      if (f.size == 1) {
-        uint8_t v;
-        std::memcpy(&v, p, 1);
-        return v;
-      }
-      if (f.size == 2) {
-        uint16_t v;
-        std::memcpy(&v, p, 2);
-        return v;
-      }
-      if (f.size == 4) {
-        uint32_t v;
-        std::memcpy(&v, p, 4);
-        return v;
-      }
-      {
-        uint64_t v;
-        std::memcpy(&v, p, 8);
-        return static_cast<double>(v);
+      switch (f.size) {
+        case 1:
+          return Load<uint8_t>(p);
+        case 2:
+          return Load<uint16_t>(p);
+        case 4:
+          return Load<uint32_t>(p);
+        default:
+          return Load<uint64_t>(p);
       }
   }
 }
