@@ -2,7 +2,7 @@
 // observed area from 20 keyframes of 800x450, time per stage, each beside a baseline:
 //   observed area : ours (0.8 m end-point prefilter + parallel ray keys) vs OctoMap's own
 //                   insertPointCloud of every pixel (serial, discretize=false as its default)
-//   Alg. 1, Alg. 2: ours (nanoflann + OpenMP) vs PCL KdTreeFLANN, one thread
+//   Alg. 1, Alg. 2: ours (nanoflann, common/parallel.hpp) vs PCL KdTreeFLANN, one thread
 // The outputs must agree exactly (same points kept), which the program checks.
 #include <octomap/OcTree.h>
 #include <pcl/kdtree/kdtree_flann.h>
@@ -137,14 +137,15 @@ int main(int argc, char** argv) {
 
   // 3. Alg. 1 and Alg. 2 (th_ch 3.2), each with its k-d tree build.
   t = Clock::now();
-  const PointCloud observed_prior = ObservedPriorCloud(prior, global, observed, params.th_ch_m);
+  const PointCloud observed_prior =
+      ObservedPriorCloud(prior, global, observed, params.th_ch_m, params.threads);
   const double ours_alg1 = Seconds(t);
   t = Clock::now();
   const size_t base_observed = BaselineCount(prior, global, params.th_ch_m, false, &observed);
   const double base_alg1 = Seconds(t);
   row("Alg. 1 observed prior (1M vs 200k)", ours_alg1, base_alg1);
   t = Clock::now();
-  const Changes changes = ClassifyChanges(global, observed_prior, params.th_ch_m);
+  const Changes changes = ClassifyChanges(global, observed_prior, params.th_ch_m, params.threads);
   const double ours_alg2 = Seconds(t);
   t = Clock::now();
   const size_t base_new = BaselineCount(global, observed_prior, params.th_ch_m, true, nullptr);

@@ -1,13 +1,14 @@
 #include "mapdelta/common/change_detection.hpp"
 
 #include <cmath>
-#include <exception>
+#include <mutex>
 #include <optional>
 
 #include "mapdelta/common/depth_cloud.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
+#include "mapdelta/common/parallel.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
 
 namespace mapdelta {
@@ -19,6 +20,9 @@ void CheckThreshold(double th_ch_m) {
   }
 }
 
+// Points per claim of the per-point loops: a k-d tree query costs ~0.1-5 us.
+constexpr size_t kPointGrain = 2048;
+
 // Keeps cloud[i] where keep[i]; order preserved.
 PointCloud Select(const PointCloud& cloud, const std::vector<char>& keep) {
   PointCloud out;
@@ -29,22 +33,24 @@ PointCloud Select(const PointCloud& cloud, const std::vector<char>& keep) {
 }
 
 // keep[i] = distance from cloud[i] to `reference` >= th (Alg. 2's test). Parallel over points.
-std::vector<char> FarFrom(const PointCloud& cloud, const NeighborIndex& reference, double th) {
+std::vector<char> FarFrom(const PointCloud& cloud, const NeighborIndex& reference, double th,
+                          int threads) {
   std::vector<char> keep(cloud.size(), 0);
   const float radius = static_cast<float>(th);
-#pragma omp parallel for schedule(dynamic, 2048)
-  for (long i = 0; i < static_cast<long>(cloud.size()); ++i) {
-    keep[i] = !reference.AnyWithin(cloud[i], radius, /*inclusive=*/false);
-  }
+  ParallelFor(
+      cloud.size(), threads,
+      [&](size_t i) { keep[i] = !reference.AnyWithin(cloud[i], radius, /*inclusive=*/false); },
+      kPointGrain);
   return keep;
 }
 
 // The points whose own voxel `observed` has seen free in at least `keyframes` keyframes.
-PointCloud SeenFree(const PointCloud& points, const ObservedArea& observed, int keyframes) {
+PointCloud SeenFree(const PointCloud& points, const ObservedArea& observed, int keyframes,
+                    int threads) {
   std::vector<char> keep(points.size(), 0);
-#pragma omp parallel for schedule(dynamic, 2048)
-  for (long i = 0; i < static_cast<long>(points.size()); ++i)
-    keep[i] = observed.IsSeenFree(points[i], keyframes);
+  ParallelFor(
+      points.size(), threads,
+      [&](size_t i) { keep[i] = observed.IsSeenFree(points[i], keyframes); }, kPointGrain);
   return Select(points, keep);
 }
 
@@ -67,29 +73,32 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
 }
 
 PointCloud ObservedPriorCloud(const PointCloud& prior, const PointCloud& global,
-                              const ObservedArea& observed, double th_ch_m) {
+                              const ObservedArea& observed, double th_ch_m, int threads) {
   CheckThreshold(th_ch_m);
   const NeighborIndex global_index(global);
   std::vector<char> keep(prior.size(), 0);
-#pragma omp parallel for schedule(dynamic, 2048)
-  for (long i = 0; i < static_cast<long>(prior.size()); ++i) {
-    // The octree look-up is cheaper than the k-d tree query: try it first.
-    keep[i] = observed.IsObserved(prior[i]) ||
-              global_index.AnyWithin(prior[i], static_cast<float>(th_ch_m), /*inclusive=*/true);
-  }
+  ParallelFor(
+      prior.size(), threads,
+      [&](size_t i) {
+        // The octree look-up is cheaper than the k-d tree query: try it first.
+        keep[i] = observed.IsObserved(prior[i]) ||
+                  global_index.AnyWithin(prior[i], static_cast<float>(th_ch_m), /*inclusive=*/true);
+      },
+      kPointGrain);
   return Select(prior, keep);
 }
 
-Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior,
-                        double th_ch_m) {
+Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
+                        int threads) {
   CheckThreshold(th_ch_m);
   Changes changes;
   {
     const NeighborIndex prior_index(observed_prior);
-    changes.new_points = Select(global, FarFrom(global, prior_index, th_ch_m));
+    changes.new_points = Select(global, FarFrom(global, prior_index, th_ch_m, threads));
   }
   const NeighborIndex global_index(global);
-  changes.removed_points = Select(observed_prior, FarFrom(observed_prior, global_index, th_ch_m));
+  changes.removed_points =
+      Select(observed_prior, FarFrom(observed_prior, global_index, th_ch_m, threads));
   return changes;
 }
 
@@ -99,29 +108,22 @@ namespace {
 using DepthSource = std::function<DepthImage(size_t index)>;
 
 PointCloud BuildGlobalCloudFrom(const KeyframeFolder& keyframes, const DepthSource& depth_of,
-                                double max_depth_m, double voxel_m,
+                                double max_depth_m, double voxel_m, int threads,
                                 const ProgressFunction& progress) {
   if (!(max_depth_m > 0) || !(voxel_m > 0)) {
     throw Error(ErrorCode::kInvalidArgument, "global cloud: max depth and voxel size must be > 0");
   }
   const size_t n = keyframes.keyframes.size();
   std::vector<PointCloud> per_keyframe(n);
-  std::exception_ptr failure;  // exceptions must not leave an OpenMP loop: rethrown after it
+  std::mutex progress_mutex;
   size_t done = 0;
-#pragma omp parallel for schedule(dynamic, 1)
-  for (long k = 0; k < static_cast<long>(n); ++k) {
-    try {
-      const PointCloud points = DepthToCloud(keyframes.camera, depth_of(k),
-                                             keyframes.keyframes[k].T_map_cam, max_depth_m);
-      per_keyframe[k] = VoxelDownsample(points, static_cast<float>(voxel_m));
-    } catch (...) {
-#pragma omp critical(mapdelta_global_cloud_failure)
-      if (!failure) failure = std::current_exception();
-    }
-#pragma omp critical(mapdelta_global_cloud_progress)
+  ParallelFor(n, threads, [&](size_t k) {
+    const PointCloud points =
+        DepthToCloud(keyframes.camera, depth_of(k), keyframes.keyframes[k].T_map_cam, max_depth_m);
+    per_keyframe[k] = VoxelDownsample(points, static_cast<float>(voxel_m));
+    const std::lock_guard lock(progress_mutex);
     if (progress) progress("global cloud", static_cast<double>(++done) / n);
-  }
-  if (failure) std::rethrow_exception(failure);
+  });
   PointCloud all;
   for (const auto& points : per_keyframe) all.insert(all.end(), points.begin(), points.end());
   return VoxelDownsample(all, static_cast<float>(voxel_m));
@@ -148,7 +150,7 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
   // 1. Global cloud P_g (depth cut th_d) and the prior, both at cloud_voxel_m.
   report("global cloud", 0.0);
   result.global = BuildGlobalCloudFrom(keyframes, depth_of, params.observed.max_depth_m,
-                                       params.cloud_voxel_m, progress);
+                                       params.cloud_voxel_m, params.threads, progress);
   result.prior = VoxelDownsample(prior, static_cast<float>(params.cloud_voxel_m));
   MD_LOG(kInfo, "change detection: global cloud " << result.global.size() << " points, prior "
                                                   << result.prior.size() << " points");
@@ -168,22 +170,25 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
       params.free_rays_stop_at_prior
           ? std::optional<PriorSurfaces>(std::in_place, prior, params.observed.resolution_m)
           : std::nullopt;
+  ObservedAreaParams observed_params = params.observed;
+  observed_params.threads = params.threads;
   const size_t n = keyframes.keyframes.size();
   for (size_t k = 0; k < n; ++k) {
     report("observed area", static_cast<double>(k) / n);
     result.observed.InsertKeyframe(keyframes.camera,
                                    result.T_prior_global * keyframes.keyframes[k].T_map_cam,
-                                   depth_of(k), params.observed, surfaces ? &*surfaces : nullptr);
+                                   depth_of(k), observed_params, surfaces ? &*surfaces : nullptr);
   }
   report("observed area", 1.0);
   // 4. Alg. 1 then Alg. 2, then optionally the per-point evidence of each removed point.
   report("classification", 0.0);
-  result.observed_prior =
-      ObservedPriorCloud(result.prior, result.global, result.observed, params.th_ch_m);
-  result.changes = ClassifyChanges(result.global, result.observed_prior, params.th_ch_m);
+  result.observed_prior = ObservedPriorCloud(result.prior, result.global, result.observed,
+                                             params.th_ch_m, params.threads);
+  result.changes =
+      ClassifyChanges(result.global, result.observed_prior, params.th_ch_m, params.threads);
   if (params.removed_min_free_keyframes > 0) {
-    result.changes.removed_points =
-        SeenFree(result.changes.removed_points, result.observed, params.removed_min_free_keyframes);
+    result.changes.removed_points = SeenFree(result.changes.removed_points, result.observed,
+                                             params.removed_min_free_keyframes, params.threads);
   }
   report("classification", 1.0);
   MD_LOG(kInfo, "change detection: observed prior "
@@ -209,8 +214,10 @@ DepthSource InMemory(const KeyframeFolder& keyframes) {
 
 }  // namespace
 
-PointCloud BuildGlobalCloud(const KeyframeFolder& keyframes, double max_depth_m, double voxel_m) {
-  return BuildGlobalCloudFrom(keyframes, InMemory(keyframes), max_depth_m, voxel_m, nullptr);
+PointCloud BuildGlobalCloud(const KeyframeFolder& keyframes, double max_depth_m, double voxel_m,
+                            int threads) {
+  return BuildGlobalCloudFrom(keyframes, InMemory(keyframes), max_depth_m, voxel_m, threads,
+                              nullptr);
 }
 
 ChangeDetectionResult DetectChanges(const KeyframeFolder& keyframes, const PointCloud& prior,

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "mapdelta/common/parallel.hpp"
+
 namespace mapdelta {
 namespace {
 
@@ -124,13 +126,11 @@ std::vector<size_t> NeighborIndex::KNearest(const Point& query, size_t k) const 
   return indices;
 }
 
-std::vector<float> NeighborIndex::NearestDistances(const PointCloud& queries) const {
+std::vector<float> NeighborIndex::NearestDistances(const PointCloud& queries, int threads) const {
   std::vector<float> out(queries.size(), std::numeric_limits<float>::infinity());
   if (empty()) return out;
-#pragma omp parallel for schedule(dynamic, 1024)
-  for (long i = 0; i < static_cast<long>(queries.size()); ++i) {
-    out[i] = NearestDistance(queries[i]);
-  }
+  ParallelFor(
+      queries.size(), threads, [&](size_t i) { out[i] = NearestDistance(queries[i]); }, 1024);
   return out;
 }
 

@@ -1,11 +1,14 @@
 #include "mapdelta/common/observed_area.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
 #include <vector>
 
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/parallel.hpp"
 #include "mapdelta/common/window_min.hpp"
 #include "observed_area_impl.hpp"
 
@@ -88,35 +91,42 @@ octomap::OcTreeKey Unpack(uint64_t v) {
 }
 
 // Adds to `free` the voxels each ray from `origin` to an end point passes through (and the end
-// voxel when end_free), in parallel: OctoMap's own OpenMP path does nothing in Debian's build
-// (see docs/design.md), and computeRayKeys is const. With `stop_before`, a ray ends before the
-// first voxel of that set it meets (its end voxel is then not free either).
+// voxel when end_free), on up to `threads` threads: OctoMap's own OpenMP path does nothing in
+// Debian's build (see docs/design.md), and computeRayKeys is const. With `stop_before`, a ray
+// ends before the first voxel of that set it meets (its end voxel is then not free either).
+// Each thread collects into its own set, merged under a lock (the merged set is the same
+// whatever the order).
 void AddRayKeys(const octomap::OcTree& tree, const octomap::point3d& origin, const PointCloud& ends,
-                bool end_free, const detail::FlatKeySet* stop_before, detail::FlatKeySet* free) {
-#pragma omp parallel if (ends.size() > 4096)
-  {
+                bool end_free, const detail::FlatKeySet* stop_before, int threads,
+                detail::FlatKeySet* free) {
+  constexpr size_t kSerialBelow = 4096;  // rays: fewer are cast faster than a team wakes
+  constexpr size_t kRaysPerClaim = 64;
+  std::atomic<size_t> next{0};
+  std::mutex merge_mutex;
+  RunOnThreads(ends.size() > kSerialBelow ? threads : 1, [&](int) {
     detail::FlatKeySet local(4 * ends.size());
     octomap::KeyRay ray;
-#pragma omp for schedule(dynamic, 64) nowait
-    for (long i = 0; i < static_cast<long>(ends.size()); ++i) {
-      if (!tree.computeRayKeys(origin, ToOcto(ends[i]), ray)) continue;
-      bool stopped = false;
-      for (const auto& key : ray) {
-        const uint64_t packed = Pack(key);
-        if (stop_before && stop_before->Contains(packed)) {
-          stopped = true;
-          break;
+    for (size_t begin; (begin = next.fetch_add(kRaysPerClaim)) < ends.size();) {
+      for (size_t i = begin, end = std::min(ends.size(), begin + kRaysPerClaim); i < end; ++i) {
+        if (!tree.computeRayKeys(origin, ToOcto(ends[i]), ray)) continue;
+        bool stopped = false;
+        for (const auto& key : ray) {
+          const uint64_t packed = Pack(key);
+          if (stop_before && stop_before->Contains(packed)) {
+            stopped = true;
+            break;
+          }
+          local.Insert(packed);
         }
-        local.Insert(packed);
+        octomap::OcTreeKey end_key;
+        if (!end_free || stopped || !tree.coordToKeyChecked(ToOcto(ends[i]), end_key)) continue;
+        const uint64_t packed = Pack(end_key);
+        if (!stop_before || !stop_before->Contains(packed)) local.Insert(packed);
       }
-      octomap::OcTreeKey end_key;
-      if (!end_free || stopped || !tree.coordToKeyChecked(ToOcto(ends[i]), end_key)) continue;
-      const uint64_t packed = Pack(end_key);
-      if (!stop_before || !stop_before->Contains(packed)) local.Insert(packed);
     }
-#pragma omp critical(mapdelta_observed_ray_keys)
+    const std::lock_guard lock(merge_mutex);
     local.ForEach([&](uint64_t key) { free->Insert(key); });
-  }
+  });
 }
 
 // One keyframe's ray end points in the map frame, each kind reduced on the fly to one centroid
@@ -231,10 +241,11 @@ void ObservedArea::InsertKeyframe(const PinholeCamera& camera, const SE3& T_map_
   }
   detail::FlatKeySet free(8 *
                           (ends.hit_free.size() + ends.measured.size() + ends.unmeasured.size()));
-  AddRayKeys(tree, origin, ends.hit_free, /*end_free=*/false, nullptr, &free);
-  AddRayKeys(tree, origin, ends.measured, /*end_free=*/true, nullptr, &free);
+  const int threads = params.threads;
+  AddRayKeys(tree, origin, ends.hit_free, /*end_free=*/false, nullptr, threads, &free);
+  AddRayKeys(tree, origin, ends.measured, /*end_free=*/true, nullptr, threads, &free);
   AddRayKeys(tree, origin, ends.unmeasured, /*end_free=*/true,
-             prior ? &prior->impl_->voxels : nullptr, &free);
+             prior ? &prior->impl_->voxels : nullptr, threads, &free);
   // 4. Update (lazily, then the inner nodes once). Each key is updated once per keyframe, so the
   //    order of the updates does not change the tree.
   free.ForEach([&](uint64_t key) {

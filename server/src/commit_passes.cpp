@@ -8,8 +8,8 @@
 #include "keyframe_cloud.hpp"
 #include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
+#include "mapdelta/common/parallel.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
-#include "parallel_for.hpp"
 
 namespace mapdelta::server {
 namespace {
@@ -50,6 +50,9 @@ ChangeDetectionParams PipelineDetectionParams(const PipelineConfig& pc) {
   // Rays through every pixel_stride-th pixel: at 800x450 and a 0.8 m octree, neighbouring
   // rays fall into the same voxels for most of their length (4x fewer rays at stride 2).
   op.pixel_stride = pc.pixel_stride;
+  // The whole job's budget: loops inside a parallel loop (the tile loop, the keyframe chunks)
+  // run on their caller's thread alone (common/parallel.hpp).
+  params.threads = op.threads = pc.threads;
   ApplyFreeSpaceRule(pc.free_space, &params);
   if (params.free_rays_stop_at_prior) {
     throw Error(ErrorCode::kInvalidArgument, "pipeline.free_space '" + pc.free_space +
@@ -67,7 +70,7 @@ SessionCloud BuildSessionCloud(JobContext& ctx, const SessionRecord& session,
   std::vector<PointCloud> parts(chunks);
   std::atomic<int64_t> recomputed{0};
   ChunkProgress progress(ctx, chunks, progress0, progress1, "session cloud");
-  ParallelFor(chunks, pc.threads, [&](int64_t c) {
+  ParallelFor(static_cast<size_t>(chunks), pc.threads, [&](int64_t c) {
     ctx.CheckStop();
     bool stale = false;
     ctx.storage.sessions().ForEachKeyframe(
@@ -118,7 +121,7 @@ SessionObserved BuildSessionObserved(JobContext& ctx, const SessionRecord& sessi
   std::vector<std::optional<ObservedArea>> areas(chunks);
   std::vector<std::optional<Eigen::Vector3d>> centres(session.keyframe_count);
   ChunkProgress progress(ctx, chunks, progress0, progress1, "observed area");
-  ParallelFor(chunks, pc.threads, [&](int64_t c) {
+  ParallelFor(static_cast<size_t>(chunks), pc.threads, [&](int64_t c) {
     ctx.CheckStop();
     ObservedArea area(pc.octree_resolution_m);
     ctx.storage.sessions().ForEachKeyframe(
@@ -137,7 +140,7 @@ SessionObserved BuildSessionObserved(JobContext& ctx, const SessionRecord& sessi
   for (int64_t step = 1; step < chunks; step *= 2) {
     std::vector<int64_t> left;
     for (int64_t i = 0; i + step < chunks; i += 2 * step) left.push_back(i);
-    ParallelFor(static_cast<int64_t>(left.size()), pc.threads, [&](int64_t j) {
+    ParallelFor(left.size(), pc.threads, [&](size_t j) {
       const int64_t i = left[j];
       areas[i]->Merge(*areas[i + step]);
       areas[i + step].reset();

@@ -130,8 +130,9 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
     const ObservedArea& observed = cache.Merged(tile_sessions, detection.observed.resolution_m);
     const double th_ch = params.th_ch_m;
     // Step 2: paper Alg. 1 (observed prior) and Alg. 2 (new / removed) on the neighbourhood.
-    const PointCloud observed_prior = ObservedPriorCloud(n.prior, n.global, observed, th_ch);
-    const Changes changes = ClassifyChanges(n.global, observed_prior, th_ch);
+    const PointCloud observed_prior =
+        ObservedPriorCloud(n.prior, n.global, observed, th_ch, detection.threads);
+    const Changes changes = ClassifyChanges(n.global, observed_prior, th_ch, detection.threads);
 
     // Step 3: evidence and confidence for the points inside the tile.
     const AxisAlignedBox bounds = grid.Bounds(tile);

@@ -7,7 +7,7 @@
 #include "commit_passes.hpp"
 #include "jobs.hpp"
 #include "mapdelta/common/log.hpp"
-#include "parallel_for.hpp"
+#include "mapdelta/common/parallel.hpp"
 #include "tile_classifier.hpp"
 
 namespace mapdelta::server {
@@ -40,7 +40,7 @@ int64_t ClassifyClaimedTiles(Storage& storage, const ServerConfig& config,
   // claimed again by another worker, and the claim count refuses the slower result.
   const int64_t lease_ms = int64_t{config.jobs.lease_s} * 1000;
   std::atomic<int64_t> completed{0};
-  ParallelFor(config.pipeline.threads, config.pipeline.threads, [&](int64_t) {
+  RunOnThreads(config.pipeline.threads, [&](int) {
     while (!stop()) {
       const std::optional<TileWorkItem> item =
           storage.jobs().ClaimTileWork(job_id, NowMs(), lease_ms);

@@ -11,6 +11,7 @@
 #include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
+#include "mapdelta/common/parallel.hpp"
 #include "mapdelta/sim/cloud_sampler.hpp"
 #include "mapdelta/sim/dataset_writer.hpp"
 #include "mapdelta/sim/imu.hpp"

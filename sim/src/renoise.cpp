@@ -13,6 +13,7 @@
 
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
+#include "mapdelta/common/parallel.hpp"
 #include "mapdelta/sim/dataset_writer.hpp"
 #include "mapdelta/sim/generator.hpp"
 #include "mapdelta/sim/imu.hpp"

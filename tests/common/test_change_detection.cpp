@@ -80,13 +80,13 @@ TEST(ChangeDetection, AlgorithmsOneAndTwoAgreeWithBruteForce) {
   for (auto& p : global) p = {coord(rng) + 10, coord(rng), coord(rng)};
   const double th = 1.5;
   const ObservedArea nothing(0.8);
-  const PointCloud observed_prior = ObservedPriorCloud(prior, global, nothing, th);
+  const PointCloud observed_prior = ObservedPriorCloud(prior, global, nothing, th, 2);
   PointCloud expected_observed;
   for (const auto& p : prior) {
     if (BruteNearest(p, global) <= th) expected_observed.push_back(p);
   }
   ASSERT_EQ(observed_prior, expected_observed);
-  const Changes changes = ClassifyChanges(global, observed_prior, th);
+  const Changes changes = ClassifyChanges(global, observed_prior, th, 2);
   size_t expected_new = 0, expected_removed = 0;
   for (const auto& p : global) expected_new += BruteNearest(p, observed_prior) >= th ? 1 : 0;
   for (const auto& p : observed_prior) expected_removed += BruteNearest(p, global) >= th ? 1 : 0;
@@ -94,7 +94,7 @@ TEST(ChangeDetection, AlgorithmsOneAndTwoAgreeWithBruteForce) {
   EXPECT_EQ(changes.removed_points.size(), expected_removed);
   EXPECT_GT(expected_new, 100u);
   // Empty observed prior: every global point is new, nothing removed.
-  const Changes all_new = ClassifyChanges(global, {}, th);
+  const Changes all_new = ClassifyChanges(global, {}, th, 2);
   EXPECT_EQ(all_new.new_points.size(), global.size());
   EXPECT_TRUE(all_new.removed_points.empty());
 }
@@ -141,8 +141,8 @@ TEST(Metrics, RadiusOutlierFilterCountsOtherPoints) {
   PointCloud cloud;
   for (int i = 0; i < 17; ++i) cloud.emplace_back(0.1f * i, 0.f, 0.f);  // 16 others within 4 m
   cloud.emplace_back(50.f, 0.f, 0.f);
-  EXPECT_EQ(RadiusOutlierFilter(cloud, 4.0, 16).size(), 17u);
-  EXPECT_EQ(RadiusOutlierFilter(cloud, 4.0, 17).size(), 0u);
+  EXPECT_EQ(RadiusOutlierFilter(cloud, 4.0, 16, 2).size(), 17u);
+  EXPECT_EQ(RadiusOutlierFilter(cloud, 4.0, 17, 2).size(), 0u);
 }
 
 TEST(ChangeDetection, BoxWorldFindsRemovedAndAddedBuildings) {

@@ -72,7 +72,7 @@ TEST(NeighborIndex, AgreesWithBruteForce) {
   for (auto& p : cloud) p = {coord(rng), coord(rng), coord(rng)};
   for (auto& p : queries) p = {coord(rng), coord(rng), coord(rng)};
   const NeighborIndex index(cloud);
-  const auto distances = index.NearestDistances(queries);
+  const auto distances = index.NearestDistances(queries, 2);
   for (size_t q = 0; q < queries.size(); ++q) {
     float best = 1e9f;
     size_t within = 0;

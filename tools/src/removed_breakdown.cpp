@@ -10,6 +10,7 @@
 #include "mapdelta/common/keyframes.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
+#include "mapdelta/common/parallel.hpp"
 #include "mapdelta/common/registration/gicp_factor.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
 #include "mapdelta/common/window_min.hpp"
@@ -179,9 +180,9 @@ RemovedBreakdown BreakDownRemoved(const RemovedBreakdownInput& input,
   const PointCloud changed = VoxelDownsample(input.changed_scene, rho);
   const PointCloud global = VoxelDownsample(input.global, rho);
   const PointCloud detected = VoxelDownsample(input.detected_removed, rho);
-  const Changes truth = ClassifyChanges(changed, original, params.th_ch_m);
-  const PointCloud removed_observed =
-      ObservedPriorCloud(truth.removed_points, global, input.observed, params.th_ch_m);
+  const Changes truth = ClassifyChanges(changed, original, params.th_ch_m, params.threads);
+  const PointCloud removed_observed = ObservedPriorCloud(
+      truth.removed_points, global, input.observed, params.th_ch_m, params.threads);
   const NeighborIndex truth_index(removed_observed), original_index(original);
   std::optional<PointCloud> at_gt;
   if (input.removed_at_gt_poses) at_gt = VoxelDownsample(*input.removed_at_gt_poses, rho);
@@ -191,23 +192,27 @@ RemovedBreakdown BreakDownRemoved(const RemovedBreakdownInput& input,
   out.detected = detected.size();
   out.points.resize(detected.size());
   std::vector<Eigen::Vector3d> normals(detected.size());
-#pragma omp parallel for schedule(dynamic, 256)
-  for (long i = 0; i < static_cast<long>(detected.size()); ++i) {
-    out.points[i].p_map = detected[i];
-    out.points[i].true_positive =
-        truth_index.AnyWithin(detected[i], static_cast<float>(params.th_ch_m));
-    normals[i] = SurfaceNormal(original, original_index, detected[i], params.normal_radius_m);
-  }
+  ParallelFor(
+      detected.size(), params.threads,
+      [&](size_t i) {
+        out.points[i].p_map = detected[i];
+        out.points[i].true_positive =
+            truth_index.AnyWithin(detected[i], static_cast<float>(params.th_ch_m));
+        normals[i] = SurfaceNormal(original, original_index, detected[i], params.normal_radius_m);
+      },
+      256);
   // 2. Every keyframe's ray through each point's pixel (one keyframe in memory at a time).
   const KeyframeFolder index = ReadKeyframeFolderIndex(input.keyframe_dir);
   for (size_t k = 0; k < index.keyframes.size(); ++k) {
     const KeyframeDepths depths =
         LoadDepths(input, index, index.keyframes[k], params.free_ray_bound_px);
-#pragma omp parallel for schedule(dynamic, 1024)
-    for (long i = 0; i < static_cast<long>(detected.size()); ++i) {
-      ExplainWithKeyframe(index.camera, index.keyframes[k].T_map_cam, depths, normals[i], params,
-                          &out.points[i]);
-    }
+    ParallelFor(
+        detected.size(), params.threads,
+        [&](size_t i) {
+          ExplainWithKeyframe(index.camera, index.keyframes[k].T_map_cam, depths, normals[i],
+                              params, &out.points[i]);
+        },
+        1024);
     if ((k + 1) % 100 == 0)
       MD_LOG(kInfo,
              "removed breakdown: " << k + 1 << "/" << index.keyframes.size() << " keyframes");

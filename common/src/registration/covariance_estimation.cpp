@@ -3,8 +3,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "mapdelta/common/parallel.hpp"
 #include "mapdelta/common/registration/gicp_factor.hpp"
-#include "parallel.hpp"
 #include "sorted_cells.hpp"
 
 namespace mapdelta::detail {

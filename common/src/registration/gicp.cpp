@@ -37,9 +37,9 @@
 #include "linearization.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
+#include "mapdelta/common/parallel.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
 #include "mapdelta/common/registration/se3_tangent.hpp"
-#include "parallel.hpp"
 
 namespace mapdelta {
 namespace {
@@ -98,7 +98,7 @@ class Problem {
     const auto& tn = detail::GicpCloudAccess::Normals(target_);
     const auto& sp = source_.points();
     const auto& sn = detail::GicpCloudAccess::Normals(source_);
-    auto parts = detail::ParallelRanges(
+    auto parts = ParallelRanges(
         source_.size(), params_.num_threads, PassSums{},
         [&](size_t begin, size_t end, PassSums& part) {
           for (size_t i = begin; i < end; ++i) {
@@ -302,16 +302,15 @@ RegistrationResult AlignGicp(const PointCloud& target, const PointCloud& source,
     return AlignGicp(GicpCloud(target, params), GicpCloud(source, params), init_T_target_source,
                      params);
   }
-  // Both clouds side by side, half the threads each; the target's k-d tree with it. (Inside
-  // one cloud the voxelization, cell sort and tree build are serial.)
-  GicpParams half = params;
-  half.num_threads = params.num_threads / 2;
+  // Both clouds side by side, the target's k-d tree with it; each cloud's own loops then run
+  // on its thread alone (nested loops are serial: parallel.hpp). Inside one cloud the
+  // voxelization, cell sort and tree build are serial anyway.
   std::optional<GicpCloud> prepared_target, prepared_source;
-  detail::CallerTeam(2).Run(2, [&](int job) {
+  ParallelFor(2, 2, [&](size_t job) {
     if (job == 0) {
-      prepared_source.emplace(source, half);
+      prepared_source.emplace(source, params);
     } else {
-      prepared_target.emplace(target, half);
+      prepared_target.emplace(target, params);
       detail::GicpCloudAccess::Tree(*prepared_target);
     }
   });

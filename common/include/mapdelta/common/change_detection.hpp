@@ -22,6 +22,9 @@ struct ChangeDetectionParams {
   // a removed point's own voxel must be seen free by this many keyframes net of hits
   // (ObservedArea::IsSeenFree, 1-4); 0 = any known voxel (the paper's Alg. 1 test).
   int removed_min_free_keyframes = 0;
+  // Threads for every step of DetectChanges, the observed area's rays included (it overrides
+  // observed.threads there); 0 = every hardware thread (parallel.hpp).
+  int threads = 0;
 };
 
 // The named rules of the free space behind P_rm (th_f, th_d, rho_o and the free-ray bound stay
@@ -39,18 +42,20 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params);
 
 // Alg. 1: the points of `prior` that lie in A_obs or within th_ch of `global`.
 PointCloud ObservedPriorCloud(const PointCloud& prior, const PointCloud& global,
-                              const ObservedArea& observed, double th_ch_m);
+                              const ObservedArea& observed, double th_ch_m, int threads);
 
 struct Changes {
   PointCloud new_points;      // P_new: global points >= th_ch from the observed prior
   PointCloud removed_points;  // P_rm: observed prior points >= th_ch from the global cloud
 };
-// Alg. 2.
-Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m);
+// Alg. 2. `threads` as ChangeDetectionParams::threads.
+Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
+                        int threads);
 
 // Every keyframe's depths below max_depth_m back-projected into the map frame, voxel-downsampled
 // to voxel_m (per keyframe and once more at the end, so memory stays bounded).
-PointCloud BuildGlobalCloud(const KeyframeFolder& keyframes, double max_depth_m, double voxel_m);
+PointCloud BuildGlobalCloud(const KeyframeFolder& keyframes, double max_depth_m, double voxel_m,
+                            int threads);
 
 // Optional step 2 of the pipeline: returns T_prior_global, the correction that maps the global
 // cloud onto the prior (e.g. wraps AlignGicp(prior, global, Identity, params).T_target_source).

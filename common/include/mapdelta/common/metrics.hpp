@@ -17,6 +17,7 @@ struct MetricsParams {
   // (a point is kept with at least min_neighbors other points within radius).
   double outlier_radius_m = 4.0;
   int outlier_min_neighbors = 16;
+  int threads = 0;  // 0 = every hardware thread (parallel.hpp)
 };
 
 struct MetricsInput {
@@ -48,6 +49,7 @@ ChangeMetrics EvaluateChangesReferenceVariant(const MetricsInput& input,
                                               const MetricsParams& params = {});
 
 // Radius outlier removal as PCL's RadiusOutlierRemoval (neighbours exclude the point itself).
-PointCloud RadiusOutlierFilter(const PointCloud& cloud, double radius_m, int min_neighbors);
+PointCloud RadiusOutlierFilter(const PointCloud& cloud, double radius_m, int min_neighbors,
+                               int threads);
 
 }  // namespace mapdelta

@@ -31,8 +31,8 @@ class NeighborIndex {
   std::vector<size_t> RadiusSearch(const Point& query, float radius) const;
   // k nearest indices, closest first.
   std::vector<size_t> KNearest(const Point& query, size_t k) const;
-  // Nearest distance for every query point, in parallel.
-  std::vector<float> NearestDistances(const PointCloud& queries) const;
+  // Nearest distance for every query point, on `threads` threads (0 = every hardware thread).
+  std::vector<float> NearestDistances(const PointCloud& queries, int threads) const;
 
  private:
   struct Impl;

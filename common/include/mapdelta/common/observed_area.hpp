@@ -33,6 +33,7 @@ struct ObservedAreaParams {
   // (a wall's depth overshooting behind it would otherwise carve the wall).
   double depth_sigma_per_m2 = 0.0;
   double depth_sigma_factor = 3.0;
+  int threads = 0;  // for casting one keyframe's rays; 0 = every hardware thread (parallel.hpp)
 };
 
 // The prior map's surfaces as voxels of the observed area's grid (issue 21, not in the paper).

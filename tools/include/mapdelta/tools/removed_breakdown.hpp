@@ -35,6 +35,7 @@ struct RemovedBreakdownParams {
   double same_point_m = 1.0;     // a GT-pose removed point this close means "not gone"
   double depth_margin_m = 1.0;   // "beyond the point", "hidden", "overshoot" need this margin
   double normal_radius_m = 1.2;  // neighbours of the original scene for the surface normal
+  int threads = 0;               // 0 = every hardware thread (common/parallel.hpp)
 };
 
 // Mutually exclusive causes, checked in this order.
