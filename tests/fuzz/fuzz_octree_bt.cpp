@@ -15,7 +15,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     area.NumKnownLeaves();
     // Writing may prune (same answers, fewer leaves), so compare answers, not leaf counts.
     const ObservedArea again = ObservedArea::DeserializeBinary(area.SerializeBinary());
-    for (const Point p : {Point(0.5f, 0.5f, 0.5f), Point(-3.f, 2.f, 1.f), Point(10.f, -7.f, 0.f)}) {
+    for (const Point& p :
+         {Point(0.5f, 0.5f, 0.5f), Point(-3.f, 2.f, 1.f), Point(10.f, -7.f, 0.f)}) {
       if (again.IsObserved(p) != area.IsObserved(p))
         throw Error(ErrorCode::kInternal, "round trip changed the tree");
     }
