@@ -22,6 +22,7 @@ constexpr std::array kTable = {
     ApiErrorInfo{ApiCode::kSessionNotOpen, "session_not_open", 409},
     ApiErrorInfo{ApiCode::kJobNotCancellable, "job_not_cancellable", 409},
     ApiErrorInfo{ApiCode::kNoPrior, "no_prior", 409},
+    ApiErrorInfo{ApiCode::kClusterState, "cluster_state_conflict", 409},
     ApiErrorInfo{ApiCode::kLimitExceeded, "limit_exceeded", 422},
     ApiErrorInfo{ApiCode::kShuttingDown, "shutting_down", 503},
     ApiErrorInfo{ApiCode::kInternal, "internal", 500},

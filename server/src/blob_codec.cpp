@@ -14,7 +14,7 @@ namespace {
 constexpr char kMagic[4] = {'M', 'D', 'B', '1'};
 constexpr uint16_t kFormatVersion = 1;
 constexpr uint64_t kMaxDeflateRatio = 1032;
-enum Kind : uint8_t { kPoints = 1, kAggregate = 2, kChanges = 3, kObserved = 4 };
+enum Kind : uint8_t { kPoints = 1, kAggregate = 2, kChanges = 3, kObserved = 4, kVoxelKeys = 5 };
 
 class Writer {
  public:
@@ -202,6 +202,28 @@ std::vector<ChangePoint> DecodeChanges(const Bytes& blob) {
     out.push_back(std::move(c));
   }
   if (!r.done()) throw Error(ErrorCode::kParse, "changes blob has trailing bytes");
+  return out;
+}
+
+Bytes EncodeVoxelKeys(const std::vector<VoxelKey>& keys) {
+  Writer w;
+  w.Put(static_cast<uint64_t>(keys.size()));
+  for (const VoxelKey& k : keys) {
+    for (int32_t v : k) w.Put(v);
+  }
+  return Seal(kVoxelKeys, w.buf());
+}
+
+std::vector<VoxelKey> DecodeVoxelKeys(const Bytes& blob) {
+  const Bytes raw = Open(kVoxelKeys, blob);
+  Reader r(raw);
+  const auto n = r.Get<uint64_t>();
+  if (n > raw.size() / 12) throw Error(ErrorCode::kParse, "voxel keys blob is truncated");
+  std::vector<VoxelKey> out(n);
+  for (VoxelKey& k : out) {
+    for (int32_t& v : k) v = r.Get<int32_t>();
+  }
+  if (!r.done()) throw Error(ErrorCode::kParse, "voxel keys blob has trailing bytes");
   return out;
 }
 

@@ -1,8 +1,9 @@
 #pragma once
 // Versioned, checksummed, zlib-compressed binary encodings of what the server stores: per tile
 // prior points, the aggregated voxel cloud with per-voxel session support and classified
-// changes with their evidence; per session the observed octree. Layout: magic "MDB1", kind (u8),
-// format version (u16), raw size (u64), CRC-32 of the raw payload (u32), then the zlib stream.
+// changes with their evidence, a change cluster's voxel keys; per session the observed octree.
+// Layout: magic "MDB1", kind (u8), format version (u16), raw size (u64), CRC-32 of the raw payload
+// (u32), then the zlib stream.
 #include <array>
 #include <cstdint>
 #include <map>
@@ -39,6 +40,9 @@ Bytes EncodeAggregate(const TileAggregate& aggregate);
 TileAggregate DecodeAggregate(const Bytes& blob);
 Bytes EncodeChanges(const std::vector<ChangePoint>& changes);
 std::vector<ChangePoint> DecodeChanges(const Bytes& blob);
+// A change cluster's voxel keys (sorted; change_lifecycle.cpp).
+Bytes EncodeVoxelKeys(const std::vector<VoxelKey>& keys);
+std::vector<VoxelKey> DecodeVoxelKeys(const Bytes& blob);
 // A session's observed octree: OctoMap's binary stream (ObservedArea::SerializeBinary).
 Bytes EncodeObserved(const std::string& octree_binary);
 // Databases written before octrees went through the codec hold the bare OctoMap stream: that is

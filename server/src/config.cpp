@@ -45,12 +45,21 @@ ConfigSchema Schema(ServerConfig& c) {
       .Field("pipeline.chunk_keyframes", &q.chunk_keyframes, 1, 100000)
       .Field("classify.th_ch_m", &c.classify.th_ch_m, 1e-6, 50)
       .Field("classify.min_voxel_support", &c.classify.min_voxel_support, 1, 1000000)
+      .Field("lifecycle.confirm_sessions", &c.lifecycle.confirm_sessions, 1, 1000)
+      .Field("lifecycle.confirm_vehicles", &c.lifecycle.confirm_vehicles, 1, 1000)
+      .Field("lifecycle.cluster_link_m", &c.lifecycle.cluster_link_m, 0.05, 50)
+      .Field("lifecycle.cluster_voxel_m", &c.lifecycle.cluster_voxel_m, 0.05, 50)
       .Rule([&c] {
         if (c.storage.backend == "sqlite" && c.storage.database.empty())
           return "storage.database: must not be empty (backend sqlite)";
         if (c.storage.backend == "postgres" && c.storage.postgres_url.empty())
           return "storage.postgres_url: must be set for backend postgres (a libpq URL)";
         return "";
+      })
+      .Rule([&c] {
+        return c.lifecycle.confirm_vehicles > c.lifecycle.confirm_sessions
+                   ? "lifecycle.confirm_vehicles: must be <= lifecycle.confirm_sessions"
+                   : "";
       })
       .Rule([&q] {
         return q.free_space_depth_m > q.max_depth_m

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <sstream>
 #include <string_view>
 #include <vector>
 
@@ -167,10 +169,51 @@ std::optional<int64_t> QueryVersion(const Req& req) {
   return QueryInt(req, "version", 0);
 }
 
-void WriteFile(Res& res, const FilePayload& p) {
-  res.status = 200;
+// If-None-Match naming this ETag (or "*"): the client has the bytes already.
+bool ClientHas(const Req& req, const std::string& etag) {
+  const std::string given = req.get_header_value("If-None-Match");
+  if (given.empty() || etag.empty()) return false;
+  if (given == "*") return true;
+  std::stringstream list(given);
+  std::string item;
+  while (std::getline(list, item, ',')) {
+    const size_t a = item.find_first_not_of(' '), b = item.find_last_not_of(' ');
+    if (a == std::string::npos) continue;
+    std::string tag = item.substr(a, b - a + 1);
+    if (tag.rfind("W/", 0) == 0) tag = tag.substr(2);  // weak comparison (RFC 9110 13.1.2)
+    if (tag == etag) return true;
+  }
+  return false;
+}
+
+// ETag, Cache-Control and 304 for a response whose bytes `etag` names.
+bool AnswerNotModified(const Req& req, Res& res, const std::string& etag, bool immutable) {
+  if (etag.empty()) return false;
+  res.set_header("ETag", etag);
+  // Immutable: a year without asking again; else revalidate every time (cheap: 304).
+  res.set_header("Cache-Control", immutable ? "public, max-age=31536000, immutable" : "no-cache");
+  if (!ClientHas(req, etag)) return false;
+  res.status = 304;
+  return true;
+}
+
+void WriteFile(const Req& req, Res& res, const FilePayload& p) {
   res.set_header("X-Prior-Version", std::to_string(p.prior_version));
+  if (AnswerNotModified(req, res, p.etag, p.immutable)) return;
+  res.status = 200;
   res.set_content(std::string(p.bytes.begin(), p.bytes.end()), p.content_type);
+}
+
+// JSON whose ETag is a hash of its text (FNV-1a, 64 bit): a poller that has the answer gets 304.
+void WriteJsonRevalidated(const Req& req, Res& res, const Json& body) {
+  const std::string text = body.dump();
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+  char etag[24];
+  std::snprintf(etag, sizeof etag, "\"%016llx\"", static_cast<unsigned long long>(h));
+  if (AnswerNotModified(req, res, etag, false)) return;
+  res.status = 200;
+  res.set_content(text, "application/json");
 }
 
 constexpr auto V = Role::kVehicle;
@@ -263,8 +306,9 @@ void RegisterMapRoutes(httplib::Server& s, MapService& svc) {
         Wrap(svc, "/v1/prior/tiles/{tile}", {"version", "format"},
              [&svc](const Req& req, Res& res, std::string& role) {
                Auth(svc, req, role, {V, R});
-               WriteFile(res, svc.GetPriorTile(req.matches[1], QueryVersion(req),
-                                               Query(req, "format").value_or("pcd")));
+               WriteFile(req, res,
+                         svc.GetPriorTile(req.matches[1], QueryVersion(req),
+                                          Query(req, "format").value_or("pcd")));
              }));
 
   // --- changes
@@ -285,7 +329,7 @@ void RegisterMapRoutes(httplib::Server& s, MapService& svc) {
         Wrap(svc, "/v1/changes/tiles/{tile}", {"format", "kind", "min_confidence", "min_support"},
              [&svc](const Req& req, Res& res, std::string& role) {
                Auth(svc, req, role, {R});
-               WriteFile(res,
+               WriteFile(req, res,
                          svc.GetTileChanges(req.matches[1], Query(req, "format").value_or("json"),
                                             Query(req, "kind").value_or(""),
                                             QueryDouble(req, "min_confidence", 0.0),
@@ -295,8 +339,48 @@ void RegisterMapRoutes(httplib::Server& s, MapService& svc) {
         Wrap(svc, "/v1/observed/tiles/{tile}.bt", {},
              [&svc](const Req& req, Res& res, std::string& role) {
                Auth(svc, req, role, {R});
-               WriteFile(res, svc.GetObservedTile(req.matches[1]));
+               WriteFile(req, res, svc.GetObservedTile(req.matches[1]));
              }));
+}
+
+// Change clusters (issue #20): the feed, listings, one cluster, and the admin's decisions.
+void RegisterClusterRoutes(httplib::Server& s, MapService& svc) {
+  const int64_t json_limit = svc.config().http.max_body_bytes;
+  s.Get("/v1/changes/feed", Wrap(svc, "/v1/changes/feed", {"since", "limit"},
+                                 [&svc](const Req& req, Res& res, std::string& role) {
+                                   Auth(svc, req, role, {R, A});
+                                   WriteJsonRevalidated(
+                                       req, res,
+                                       svc.ChangeFeed(Query(req, "since"), Query(req, "limit")));
+                                 }));
+  s.Get("/v1/changes/clusters",
+        Wrap(svc, "/v1/changes/clusters", {"bbox", "state", "page", "page_size"},
+             [&svc](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {R, A});
+               WriteJsonRevalidated(
+                   req, res,
+                   svc.ListClusters(Query(req, "bbox"), Query(req, "state"),
+                                    QueryInt(req, "page", 1), QueryInt(req, "page_size", 100)));
+             }));
+  s.Get(R"(/v1/changes/clusters/([0-9]{1,18}))",
+        Wrap(svc, "/v1/changes/clusters/{id}", {},
+             [&svc](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {R, A});
+               WriteJsonRevalidated(req, res, svc.GetCluster(PathInt(req, 1)));
+             }));
+  for (const auto& [verb, state] : {std::pair{"confirm", ClusterState::kConfirmed},
+                                    std::pair{"reject", ClusterState::kRejected}}) {
+    const std::string route = std::string("/v1/admin/changes/{id}/") + verb;
+    s.Post(std::string(R"(/v1/admin/changes/([0-9]{1,18})/)") + verb,
+           Wrap(svc, route, {},
+                [&svc, json_limit, to = state](const Req& req, Res& res, std::string& role) {
+                  const TokenRecord t = svc.Authorize(req.get_header_value("Authorization"), {A});
+                  role = std::string(ToString(t.role)) + ":" + t.id;
+                  WriteJson(res, 200,
+                            svc.DecideCluster(PathInt(req, 1), to, ParseJsonBody(req, json_limit),
+                                              t.name));
+                }));
+  }
 }
 
 void RegisterAdminRoutes(httplib::Server& s, MapService& svc) {
@@ -362,6 +446,7 @@ void RegisterRoutes(httplib::Server& s, MapService& svc) {
   RegisterPublicRoutes(s, svc);
   RegisterVehicleRoutes(s, svc);
   RegisterMapRoutes(s, svc);
+  RegisterClusterRoutes(s, svc);
   RegisterAdminRoutes(s, svc);
 }
 

@@ -8,6 +8,7 @@
 #include "api_json.hpp"
 #include "auth.hpp"
 #include "blob_codec.hpp"
+#include "change_lifecycle.hpp"
 #include "job_lease.hpp"
 #include "jobs.hpp"
 #include "keyframe_cloud.hpp"
@@ -61,6 +62,8 @@ int64_t NowMs() {
 MapService::MapService(ServerConfig config, std::unique_ptr<Storage> storage)
     : config_(std::move(config)), storage_(std::move(storage)) {
   ValidateServerConfig(config_);
+  // Every publish of tile changes from here on keeps the change clusters' lifecycle.
+  storage_->tiles().SetClusterLifecycle(std::make_shared<ChangeLifecycle>(config_.lifecycle));
 }
 
 MapService::~MapService() { StopJobWorker(); }

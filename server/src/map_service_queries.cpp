@@ -17,6 +17,7 @@
 #include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/server/map_service.hpp"
 #include "observed_crop.hpp"
+#include "query_params.hpp"
 #include "tile_classifier.hpp"
 
 namespace mapdelta::server {
@@ -74,56 +75,11 @@ TileId ParseTile(const std::string& text) {
   return *tile;
 }
 
-// Tile index range of a rectangle in user coordinates, as a Rect of indices (what storage
-// filters on); the grid is the map's local one.
-Rect TileRange(const TileGrid& grid, const MapFrame& frame, double min_x, double min_y,
-               double max_x, double max_y) {
-  const TileId a = grid.TileOf(min_x - frame.origin.x(), min_y - frame.origin.y());
-  const TileId b = grid.TileOf(max_x - frame.origin.x(), max_y - frame.origin.y());
-  return Rect{double(a.ix()), double(a.iy()), double(b.ix()), double(b.iy())};
-}
-
 // A tile's [min_x, min_y, max_x, max_y] in user coordinates.
 Json UserBounds(const TileGrid& grid, const MapFrame& frame, const TileId& tile) {
   const AxisAlignedBox b = grid.Bounds(tile);
   const Eigen::Vector3d lo = UserPoint(frame, b.min), hi = UserPoint(frame, b.max);
   return {lo.x(), lo.y(), hi.x(), hi.y()};
-}
-
-std::vector<double> ParseBbox(const std::string& text) {
-  std::vector<double> v;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    char* end = nullptr;
-    const double d = std::strtod(item.c_str(), &end);
-    if (item.empty() || *end != '\0' || !std::isfinite(d)) {
-      throw ApiError(ApiCode::kInvalidArgument, "bbox: '" + item + "' is not a number");
-    }
-    v.push_back(d);
-  }
-  for (double d : v) {
-    if (std::abs(d) > kMaxCoordinate)
-      throw ApiError(ApiCode::kInvalidArgument, "bbox: coordinates must be within +-1e8 m");
-  }
-  if (v.size() != 4 || v[0] > v[2] || v[1] > v[3]) {
-    throw ApiError(ApiCode::kInvalidArgument,
-                   "bbox must be min_x,min_y,max_x,max_y with min <= max");
-  }
-  if (v[2] - v[0] > 1e6 || v[3] - v[1] > 1e6)
-    throw ApiError(ApiCode::kInvalidArgument, "bbox larger than 1000 km");
-  return v;
-}
-
-constexpr int64_t kMaxPage = 1'000'000'000;
-
-void CheckPage(int64_t page, int64_t page_size) {
-  if (page < 1) throw ApiError(ApiCode::kInvalidArgument, "page must be >= 1");
-  if (page_size < 1 || page_size > 1000)
-    throw ApiError(ApiCode::kInvalidArgument, "page_size must be in [1, 1000]");
-  // The storage offset is (page - 1) * page_size: a page near 2^63 would overflow it.
-  if (page > kMaxPage)
-    throw ApiError(ApiCode::kInvalidArgument, "page must be <= " + std::to_string(kMaxPage));
 }
 
 Json JobToJson(const JobRecord& j) {
@@ -203,6 +159,10 @@ FilePayload MapService::GetPriorTile(const std::string& tile_text, std::optional
                                [](const std::string& path, const PointCloud& cloud,
                                   const CloudFrame& frame) { WriteCloud(path, cloud, frame); });
   p.prior_version = v;
+  // The row's own version names the bytes (a tile unchanged since reads the same at v and v+1).
+  p.etag =
+      "\"prior-" + tile.ToString() + "-r" + std::to_string(record->version) + "-" + format + "\"";
+  p.immutable = version.has_value();  // "the latest" moves on; version N never changes
   return p;
 }
 

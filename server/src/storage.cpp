@@ -5,8 +5,9 @@
 namespace mapdelta::server {
 
 Storage::Storage(Stores stores) : stores_(std::move(stores)) {
-  if (!stores_.tokens || !stores_.priors || !stores_.sessions || !stores_.jobs || !stores_.tiles) {
-    throw Error(ErrorCode::kInternal, "Storage: a backend left one of its five stores out");
+  if (!stores_.tokens || !stores_.priors || !stores_.sessions || !stores_.jobs || !stores_.tiles ||
+      !stores_.clusters) {
+    throw Error(ErrorCode::kInternal, "Storage: a backend left one of its six stores out");
   }
 }
 

@@ -17,6 +17,7 @@ std::unique_ptr<Storage> OpenMemoryStorage() {
   stores.sessions = std::make_unique<MemorySessionStore>(tables);
   stores.jobs = std::make_unique<MemoryJobStore>(tables);
   stores.tiles = std::make_unique<MemoryTileStore>(tables);
+  stores.clusters = std::make_unique<MemoryClusterStore>(tables);
   return std::make_unique<Storage>(std::move(stores));
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// In-memory implementation of the stores: plain containers under one mutex shared by the five
+// In-memory implementation of the stores: plain containers under one mutex shared by the six
 // stores, so a cross-area write (commit + job, cancel + session, refresh + prior) is one
 // critical section. Every write checks everything it could refuse before it changes anything,
 // which is what makes each method atomic without a rollback log.
@@ -13,6 +13,14 @@
 #include "mapdelta/server/storage.hpp"
 
 namespace mapdelta::server {
+
+// The change clusters' tables (kept together: a publish plans them on a copy and swaps it in,
+// which makes the cluster part of a publish all or nothing).
+struct MemoryClusterTables {
+  std::map<int64_t, ChangeClusterRecord> clusters;
+  std::map<int64_t, ClusterTransitionRecord> transitions;  // by seq
+  int64_t last_seq = 0;
+};
 
 struct MemoryTables {
   struct TokenRow {
@@ -42,7 +50,14 @@ struct MemoryTables {
   std::map<TileId, TileChangesRecord> tile_changes;
   std::map<std::pair<int64_t, std::string>, RefreshTileWrite> refresh_log;  // (job, tile)
   std::map<std::string, std::string> settings;
+  MemoryClusterTables change_clusters;
 };
+
+// The clusters after publishing these tiles (ReconcileTileClusters on a copy of the tables), or
+// nullopt without a lifecycle. Called under the tables' mutex, before the publish writes tiles.
+std::optional<MemoryClusterTables> PlanClustersInMemory(
+    const MemoryTables& t, const ClusterLifecycle* lifecycle,
+    const std::vector<TilePublication>& publications);
 
 // Next id of a table keyed by id, as SQLite's INTEGER PRIMARY KEY picks it (greatest + 1).
 template <typename Row>
@@ -155,6 +170,20 @@ class MemoryTileStore final : public TileStore, MemoryArea {
                        int64_t now_ms) override;
   std::optional<std::string> GetSetting(const std::string& key) override;
   void PutSetting(const std::string& key, const std::string& value) override;
+};
+
+class MemoryClusterStore final : public ChangeClusterStore, MemoryArea {
+ public:
+  using MemoryArea::MemoryArea;
+  std::optional<ChangeClusterRecord> Get(int64_t id) override;
+  std::vector<ClusterTransitionRecord> History(int64_t id) override;
+  std::vector<ChangeClusterRecord> Feed(int64_t since, int64_t limit) override;
+  int64_t LastSeq() override;
+  std::vector<ChangeClusterRecord> List(const std::optional<Rect>& rect,
+                                        std::optional<ClusterState> state, int64_t limit,
+                                        int64_t offset, int64_t* total) override;
+  std::optional<ChangeClusterRecord> Transition(int64_t id, const std::vector<ClusterState>& from,
+                                                ClusterTransitionRecord transition) override;
 };
 
 }  // namespace mapdelta::server

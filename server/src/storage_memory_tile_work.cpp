@@ -89,6 +89,12 @@ PublishOutcome MemoryTileStore::PublishTileWork(int64_t job_id) {
     if (row.item.published) return PublishOutcome::kAlreadyPublished;
     if (!row.item.done_by) return PublishOutcome::kNotReady;
   }
+  std::vector<TilePublication> published;
+  for (const auto& [tile, row] : job->second) {
+    published.push_back({tile, job_id, row.staged.updated_ms, &row.staged, nullptr, 0, {}});
+  }
+  if (auto clusters = PlanClustersInMemory(t(), lifecycle_.get(), published))
+    t().change_clusters = std::move(*clusters);
   for (auto& [tile, row] : job->second) {
     t().tile_changes[tile] = row.staged;
     row.item.published = true;

@@ -55,10 +55,17 @@ void MemoryTileStore::ApplyUpdates(int64_t job_id, const std::vector<TileStateRe
 void MemoryTileStore::ApplyChanges(int64_t job_id, const std::vector<TileChangesRecord>& changes) {
   auto lock = Lock();
   if (job_id > 0) RequireJob(t(), job_id, "tile changes");
+  std::vector<TilePublication> published;
+  for (const TileChangesRecord& c : changes) {
+    published.push_back({c.tile, job_id, c.updated_ms, &c, nullptr, 0, {}});
+  }
+  std::optional<MemoryClusterTables> clusters =
+      PlanClustersInMemory(t(), lifecycle_.get(), published);
   for (const TileChangesRecord& c : changes) {
     t().tile_changes[c.tile] = c;
     if (job_id > 0) t().job_tiles[job_id].insert(c.tile.ToString());
   }
+  if (clusters) t().change_clusters = std::move(*clusters);
 }
 
 std::optional<TileChangesRecord> MemoryTileStore::GetChanges(const TileId& tile) {
@@ -102,6 +109,12 @@ int64_t MemoryTileStore::ApplyRefresh(int64_t job_id, const PriorVersionRecord& 
     }
   }
   const int64_t version = previous + 1;
+  std::vector<TilePublication> published;
+  for (const RefreshTileWrite& w : tiles) {
+    published.push_back({w.tile, job_id, now_ms, nullptr, &w, version, {}});
+  }
+  std::optional<MemoryClusterTables> clusters =
+      PlanClustersInMemory(t(), lifecycle_.get(), published);
   PriorVersionRecord record;
   record.version = version;
   record.created_ms = now_ms;
@@ -130,6 +143,7 @@ int64_t MemoryTileStore::ApplyRefresh(int64_t job_id, const PriorVersionRecord& 
         "prior version " + std::to_string(version) + " created; reclassifying neighbours";
     job->second.result_json = result_json;
   }
+  if (clusters) t().change_clusters = std::move(*clusters);
   return version;
 }
 

@@ -71,6 +71,7 @@ std::unique_ptr<Storage> OpenPostgresStorage(const std::string& conninfo, int ma
   stores.sessions = std::make_unique<PostgresSessionStore>(shared);
   stores.jobs = std::make_unique<PostgresJobStore>(shared);
   stores.tiles = std::make_unique<PostgresTileStore>(shared);
+  stores.clusters = std::make_unique<PostgresClusterStore>(shared);
   return std::make_unique<Storage>(std::move(stores));
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// PostgreSQL implementation of the stores, for several server processes on one database. The five
+// PostgreSQL implementation of the stores, for several server processes on one database. The six
 // stores share a pool of connections (a libpq connection serves one thread at a time); every method
 // is one transaction on one connection. Where SQLite relies on its single writer, these take row
 // locks (FOR UPDATE), a transaction-scoped advisory lock (prior version numbers), or skip rows
@@ -118,6 +118,20 @@ class PostgresTileStore final : public TileStore, PostgresArea {
   void PutSetting(const std::string& key, const std::string& value) override;
 };
 
+class PostgresClusterStore final : public ChangeClusterStore, PostgresArea {
+ public:
+  using PostgresArea::PostgresArea;
+  std::optional<ChangeClusterRecord> Get(int64_t id) override;
+  std::vector<ClusterTransitionRecord> History(int64_t id) override;
+  std::vector<ChangeClusterRecord> Feed(int64_t since, int64_t limit) override;
+  int64_t LastSeq() override;
+  std::vector<ChangeClusterRecord> List(const std::optional<Rect>& rect,
+                                        std::optional<ClusterState> state, int64_t limit,
+                                        int64_t offset, int64_t* total) override;
+  std::optional<ChangeClusterRecord> Transition(int64_t id, const std::vector<ClusterState>& from,
+                                                ClusterTransitionRecord transition) override;
+};
+
 // Statements the stores share, inside a caller's transaction.
 namespace pg_rows {
 // Takes the prior-version advisory lock (held until the transaction ends) and returns the latest
@@ -134,6 +148,9 @@ pg::Params& AddTileRange(pg::Params& p, const Rect& r);
 void FenceJob(pg::Connection& c, int64_t job_id, const std::string& worker_id);
 // The ON CONFLICT clause of an INSERT INTO tile_changes: a tile's row is replaced whole.
 extern const char* const kUpsertTileChanges;
+// The published tile's clusters by the lifecycle (cluster_rows.hpp); nothing without one.
+void ReconcileTileClusters(pg::Connection& c, const ClusterLifecycle* lifecycle,
+                           const TilePublication& publication);
 }  // namespace pg_rows
 
 }  // namespace mapdelta::server

@@ -119,6 +119,26 @@ PublishOutcome PostgresTileStore::PublishTileWork(int64_t job_id) {
                        "WHERE job_id = $1 ") +
                pg_rows::kUpsertTileChanges,
            pg::Params().Add(job_id));
+  if (lifecycle_) {
+    const pg::Result staged = c->Query(
+        "SELECT ix, iy, prior_version, new_count, removed_count, max_confidence, changes, "
+        "params_json, updated_ms FROM tile_work WHERE job_id = $1 ORDER BY ix, iy",
+        pg::Params().Add(job_id));
+    for (int i = 0; i < staged.rows(); ++i) {
+      TileChangesRecord t;
+      t.tile =
+          TileId(static_cast<int32_t>(staged.Int(i, 0)), static_cast<int32_t>(staged.Int(i, 1)));
+      t.prior_version = staged.Int(i, 2);
+      t.new_count = staged.Int(i, 3);
+      t.removed_count = staged.Int(i, 4);
+      t.max_confidence = staged.Real(i, 5);
+      t.changes = staged.Bytes(i, 6);
+      t.params_json = staged.Text(i, 7);
+      t.updated_ms = staged.Int(i, 8);
+      pg_rows::ReconcileTileClusters(*c, lifecycle_.get(),
+                                     {t.tile, job_id, t.updated_ms, &t, nullptr, 0, {}});
+    }
+  }
   c->Query("UPDATE tile_work SET published = 1, changes = NULL WHERE job_id = $1",
            pg::Params().Add(job_id));
   tx.Commit();

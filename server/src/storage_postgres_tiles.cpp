@@ -133,6 +133,8 @@ void PostgresTileStore::ApplyChanges(int64_t job_id,
   for (const TileChangesRecord& t : changes) {
     WriteChanges(*c, t);
     if (job_id > 0) MarkJobTile(*c, job_id, t.tile);
+    pg_rows::ReconcileTileClusters(*c, lifecycle_.get(),
+                                   {t.tile, job_id, t.updated_ms, &t, nullptr, 0, {}});
   }
   tx.Commit();
 }
@@ -203,6 +205,9 @@ int64_t PostgresTileStore::ApplyRefresh(int64_t job_id, const PriorVersionRecord
   for (const RefreshTileWrite& t : tiles) {
     const std::string tile = t.tile.ToString();
     pg_rows::InsertPriorTile(*c, version, tile, t.tile.ix(), t.tile.iy(), t.point_count, t.points);
+    // Before the tile's sessions are reset below: the lifecycle reads them.
+    pg_rows::ReconcileTileClusters(*c, lifecycle_.get(),
+                                   {t.tile, job_id, now_ms, nullptr, &t, version, {}});
     // The merged changes are now part of the prior: the tile starts aggregating afresh.
     for (const char* q :
          {"DELETE FROM tile_state WHERE tile = $1", "DELETE FROM tile_sessions WHERE tile = $1",

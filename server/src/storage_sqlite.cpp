@@ -45,6 +45,7 @@ std::unique_ptr<Storage> OpenSqliteStorage(const std::string& path) {
   stores.sessions = std::make_unique<SqliteSessionStore>(connection);
   stores.jobs = std::make_unique<SqliteJobStore>(connection);
   stores.tiles = std::make_unique<SqliteTileStore>(connection);
+  stores.clusters = std::make_unique<SqliteClusterStore>(connection);
   return std::make_unique<Storage>(std::move(stores));
 }
 

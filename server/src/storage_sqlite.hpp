@@ -1,5 +1,5 @@
 #pragma once
-// SQLite implementation of the stores. One connection guarded by one mutex, shared by the five
+// SQLite implementation of the stores. One connection guarded by one mutex, shared by the six
 // stores: SQLite serializes writers anyway, and one connection keeps BEGIN IMMEDIATE ... COMMIT
 // of different stores from interleaving.
 #include <memory>
@@ -120,6 +120,25 @@ class SqliteTileStore final : public TileStore, SqliteArea {
   void WriteChangesLocked(const TileChangesRecord& changes);
   void MarkJobTileLocked(int64_t job_id, const TileId& tile);
 };
+
+class SqliteClusterStore final : public ChangeClusterStore, SqliteArea {
+ public:
+  using SqliteArea::SqliteArea;
+  std::optional<ChangeClusterRecord> Get(int64_t id) override;
+  std::vector<ClusterTransitionRecord> History(int64_t id) override;
+  std::vector<ChangeClusterRecord> Feed(int64_t since, int64_t limit) override;
+  int64_t LastSeq() override;
+  std::vector<ChangeClusterRecord> List(const std::optional<Rect>& rect,
+                                        std::optional<ClusterState> state, int64_t limit,
+                                        int64_t offset, int64_t* total) override;
+  std::optional<ChangeClusterRecord> Transition(int64_t id, const std::vector<ClusterState>& from,
+                                                ClusterTransitionRecord transition) override;
+};
+
+// Inside the caller's open transaction: the published tile's clusters by the lifecycle
+// (cluster_rows.hpp); nothing without one.
+void ReconcileTileClustersSqlite(sql::Db& db, const ClusterLifecycle* lifecycle,
+                                 const TilePublication& publication);
 
 // Binds a Rect of tile indices as four integers (ix BETWEEN ? AND ? AND iy BETWEEN ? AND ?).
 void BindTileRange(sql::Stmt& s, int first, const Rect& r);

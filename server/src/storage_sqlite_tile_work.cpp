@@ -123,12 +123,33 @@ PublishOutcome SqliteTileStore::PublishTileWork(int64_t job_id) {
     if (s.Int(2) > 0) return PublishOutcome::kAlreadyPublished;
     if (s.Int(0) == 0 || s.Int(1) > 0) return PublishOutcome::kNotReady;
   }
-  sql::Stmt copy(db(),
-                 "INSERT OR REPLACE INTO tile_changes (tile, ix, iy, prior_version, new_count, "
-                 "removed_count, max_confidence, changes, params_json, updated_ms) "
-                 "SELECT tile, ix, iy, prior_version, new_count, removed_count, max_confidence, "
-                 "changes, params_json, updated_ms FROM tile_work WHERE job_id = ?");
+  sql::Stmt copy(
+      db(),
+      "INSERT OR REPLACE INTO tile_changes (tile, ix, iy, prior_version, new_count, "
+      "removed_count, max_confidence, changes, params_json, updated_ms) "
+      "SELECT tile, ix, iy, prior_version, new_count, removed_count, max_confidence, "
+      "changes, params_json, updated_ms FROM tile_work WHERE job_id = ? ORDER BY ix, iy");
   copy.Bind(1, job_id).Run();
+  if (lifecycle_) {
+    sql::Stmt staged(
+        db(),
+        "SELECT ix, iy, prior_version, new_count, removed_count, max_confidence, "
+        "changes, params_json, updated_ms FROM tile_work WHERE job_id = ? ORDER BY ix, iy");
+    staged.Bind(1, job_id);
+    while (staged.Step()) {
+      TileChangesRecord c;
+      c.tile = TileId(static_cast<int32_t>(staged.Int(0)), static_cast<int32_t>(staged.Int(1)));
+      c.prior_version = staged.Int(2);
+      c.new_count = staged.Int(3);
+      c.removed_count = staged.Int(4);
+      c.max_confidence = staged.Real(5);
+      c.changes = staged.Blob(6);
+      c.params_json = staged.Text(7);
+      c.updated_ms = staged.Int(8);
+      ReconcileTileClustersSqlite(db(), lifecycle_.get(),
+                                  {c.tile, job_id, c.updated_ms, &c, nullptr, 0, {}});
+    }
+  }
   sql::Stmt mark(db(), "UPDATE tile_work SET published = 1, changes = NULL WHERE job_id = ?");
   mark.Bind(1, job_id).Run();
   tx.Commit();

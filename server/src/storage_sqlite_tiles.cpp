@@ -92,6 +92,8 @@ void SqliteTileStore::ApplyChanges(int64_t job_id, const std::vector<TileChanges
   for (const TileChangesRecord& c : changes) {
     WriteChangesLocked(c);
     if (job_id > 0) MarkJobTileLocked(job_id, c.tile);
+    ReconcileTileClustersSqlite(db(), lifecycle_.get(),
+                                {c.tile, job_id, c.updated_ms, &c, nullptr, 0, {}});
   }
   tx.Commit();
 }
@@ -175,6 +177,9 @@ int64_t SqliteTileStore::ApplyRefresh(int64_t job_id, const PriorVersionRecord& 
   }
   for (const RefreshTileWrite& t : tiles) {
     const std::string tile = t.tile.ToString();
+    // Before the tile's sessions are reset below: the lifecycle reads them.
+    ReconcileTileClustersSqlite(db(), lifecycle_.get(),
+                                {t.tile, job_id, now_ms, nullptr, &t, version, {}});
     sql::Stmt p(db(),
                 "INSERT INTO prior_tiles (version, tile, ix, iy, point_count, points) "
                 "VALUES (?,?,?,?,?,?)");

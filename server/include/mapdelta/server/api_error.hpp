@@ -24,6 +24,7 @@ enum class ApiCode {
   kSessionNotOpen,     // 409 session already committed / committing
   kJobNotCancellable,  // 409 job already finished
   kNoPrior,            // 409 no prior map imported yet
+  kClusterState,       // 409 a change cluster's state does not allow the decision
   kLimitExceeded,      // 422 too many keyframes in a session
   kShuttingDown,       // 503
   kInternal,           // 500

@@ -84,6 +84,19 @@ struct ClassifyConfig {
   int min_voxel_support = 1;  // aggregated voxels seen by fewer sessions are ignored
 };
 
+// Change clusters' lifecycle (issue #20; server/src/change_lifecycle.hpp has the rules).
+struct LifecycleConfig {
+  // A candidate is confirmed when at least confirm_sessions sessions support it (more than
+  // contradict it) and those come from at least confirm_vehicles distinct vehicles, or were
+  // recorded on at least confirm_vehicles distinct UTC days (independent noise: another drive).
+  // As many contradicting sessions (more than support it) reject a candidate or expire a
+  // confirmed cluster.
+  int confirm_sessions = 2;
+  int confirm_vehicles = 2;
+  double cluster_link_m = 1.5;   // change points of one kind closer than this are one cluster
+  double cluster_voxel_m = 1.0;  // voxel edge of a cluster's keys (matching across commits)
+};
+
 struct ServerConfig {
   HttpConfig http;
   StorageConfig storage;
@@ -92,6 +105,7 @@ struct ServerConfig {
   IngestConfig ingest;
   PipelineConfig pipeline;
   ClassifyConfig classify;
+  LifecycleConfig lifecycle;
 };
 
 // Throws Error(kInvalidArgument) if unreadable or listing every problem (unknown keys, types,

@@ -26,6 +26,8 @@ struct FilePayload {
   Bytes bytes;
   std::string content_type;
   int64_t prior_version = 0;
+  std::string etag;        // names the content (empty: none); the HTTP adapter answers 304 on it
+  bool immutable = false;  // the same URL always answers these bytes (a prior tile at a version)
 };
 
 int64_t NowMs();
@@ -81,6 +83,20 @@ class MapService {
   FilePayload GetTileChanges(const std::string& tile, const std::string& format,
                              const std::string& kind, double min_confidence, int64_t min_support);
   FilePayload GetObservedTile(const std::string& tile);
+
+  // --- change clusters and their feed (issue #20; change_cluster_store.hpp, change_lifecycle.hpp)
+  // Clusters whose state changed after the position `since` (a previous answer's "next"; absent
+  // = from the start), in order, at most `limit` (default 100, at most 1000). The parameters are
+  // the query's text; bad ones throw kInvalidArgument naming them.
+  Json ChangeFeed(const std::optional<std::string>& since, const std::optional<std::string>& limit);
+  // Clusters in a bbox (user coordinates; absent = all) and state (absent = any), by id.
+  Json ListClusters(const std::optional<std::string>& bbox, const std::optional<std::string>& state,
+                    int64_t page, int64_t page_size);
+  Json GetCluster(int64_t cluster_id);  // with its transitions; kNotFound if unknown
+  // An admin's decision, body {"cause": "..."}: confirmed (from candidate or rejected) or
+  // rejected (from candidate or confirmed); kClusterState otherwise.
+  Json DecideCluster(int64_t cluster_id, ClusterState to, const Json& body,
+                     const std::string& admin_name);
 
   // --- admin jobs
   Json CreateJob(const Json& body);

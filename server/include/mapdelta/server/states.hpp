@@ -1,8 +1,8 @@
 #pragma once
 // The server's closed sets of states and kinds, each an enum with exactly one table of names:
 // the names are what JSON, the database's TEXT columns (and their CHECK constraints in
-// migrations/) and the logs carry. A new enum (e.g. the coming change-lifecycle state) adds
-// itself here the same way: the enum, then an EnumNames specialisation listing every value.
+// migrations/) and the logs carry. A new enum adds itself here the same way: the enum, then an
+// EnumNames specialisation listing every value.
 #include <array>
 #include <optional>
 #include <string>
@@ -18,6 +18,11 @@ enum class SessionState { kOpen, kCommitting, kCommitted, kFailed };
 enum class JobType { kCommit, kRefresh, kReclassify, kRollback };
 enum class JobState { kQueued, kRunning, kSucceeded, kFailed, kCancelled };
 enum class PriorSource { kImport, kRefresh, kRollback };  // how a prior version was made
+// A change cluster's kind and lifecycle state (change_cluster_store.hpp): candidate ->
+// confirmed -> applied -> expired, or rejected; expired is final, rejected ends the automatic
+// lifecycle (an admin may still confirm it).
+enum class ClusterKind { kNew, kRemoved };
+enum class ClusterState { kCandidate, kConfirmed, kApplied, kExpired, kRejected };
 
 // EnumNames<E>::kValues lists every value of E (declaration order) with its name;
 // EnumNames<E>::kWhat names the set in error messages.
@@ -68,6 +73,23 @@ struct EnumNames<PriorSource> {
   static constexpr NameTable<PriorSource, 3> kValues{{{PriorSource::kImport, "import"},
                                                       {PriorSource::kRefresh, "refresh"},
                                                       {PriorSource::kRollback, "rollback"}}};
+};
+
+template <>
+struct EnumNames<ClusterKind> {
+  static constexpr std::string_view kWhat = "cluster kind";
+  static constexpr NameTable<ClusterKind, 2> kValues{
+      {{ClusterKind::kNew, "new"}, {ClusterKind::kRemoved, "removed"}}};
+};
+
+template <>
+struct EnumNames<ClusterState> {
+  static constexpr std::string_view kWhat = "cluster state";
+  static constexpr NameTable<ClusterState, 5> kValues{{{ClusterState::kCandidate, "candidate"},
+                                                       {ClusterState::kConfirmed, "confirmed"},
+                                                       {ClusterState::kApplied, "applied"},
+                                                       {ClusterState::kExpired, "expired"},
+                                                       {ClusterState::kRejected, "rejected"}}};
 };
 
 template <typename E>

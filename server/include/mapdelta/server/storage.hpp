@@ -1,5 +1,5 @@
 #pragma once
-// The server's storage: one database seen through five per-area stores. Blobs are opaque here
+// The server's storage: one database seen through six per-area stores. Blobs are opaque here
 // (the service layer encodes them), so a backend needs only the store headers' contract, which
 // tests/server/test_storage_contract.cpp checks for every backend. Every store method is
 // atomic: it applies fully or throws. The few writes that span areas (a commit queues its job,
@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "mapdelta/server/change_cluster_store.hpp"
 #include "mapdelta/server/config.hpp"
 #include "mapdelta/server/job_store.hpp"
 #include "mapdelta/server/prior_store.hpp"
@@ -20,13 +21,14 @@ namespace mapdelta::server {
 
 class Storage {
  public:
-  // One backend's stores; all five are required.
+  // One backend's stores; all six are required.
   struct Stores {
     std::unique_ptr<TokenStore> tokens;
     std::unique_ptr<PriorStore> priors;
     std::unique_ptr<SessionStore> sessions;
     std::unique_ptr<JobStore> jobs;
     std::unique_ptr<TileStore> tiles;
+    std::unique_ptr<ChangeClusterStore> clusters;
   };
   explicit Storage(Stores stores);  // throws Error(kInternal) if a store is missing
 
@@ -35,6 +37,7 @@ class Storage {
   SessionStore& sessions() { return *stores_.sessions; }
   JobStore& jobs() { return *stores_.jobs; }
   TileStore& tiles() { return *stores_.tiles; }
+  ChangeClusterStore& clusters() { return *stores_.clusters; }
 
  private:
   Stores stores_;

@@ -2,12 +2,14 @@
 // Per-tile aggregation across sessions, per-tile classification, the refresh that merges
 // changes into a new prior version, and the settings (current classification parameters).
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "mapdelta/common/tiling.hpp"
+#include "mapdelta/server/change_cluster_store.hpp"
 #include "mapdelta/server/prior_store.hpp"
 #include "mapdelta/server/storage_types.hpp"
 
@@ -77,6 +79,17 @@ class TileStore {
 
   virtual std::optional<std::string> GetSetting(const std::string& key) = 0;
   virtual void PutSetting(const std::string& key, const std::string& value) = 0;
+
+  // Once set, every write above that publishes tiles' changes (ApplyChanges, PublishTileWork,
+  // ApplyRefresh) updates each published tile's change clusters by its Plan in the same
+  // transaction (change_cluster_store.hpp); an exception from it writes nothing. Unset (the
+  // CLI tools, most storage tests): no clusters. Set before the store is used by other threads.
+  void SetClusterLifecycle(std::shared_ptr<const ClusterLifecycle> lifecycle) {
+    lifecycle_ = std::move(lifecycle);
+  }
+
+ protected:
+  std::shared_ptr<const ClusterLifecycle> lifecycle_;
 };
 
 }  // namespace mapdelta::server
