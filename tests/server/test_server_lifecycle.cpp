@@ -1,0 +1,322 @@
+// Change clusters' lifecycle (issue #20) through the facade, on the in-memory storage, SQLite and
+// PostgreSQL: real commits of the box scene (analytic depth; box A removed, box C added) by
+// different vehicles, a refresh, and drives over the original scene again. Every transition:
+// candidate -> confirmed (two vehicles), -> applied (refresh), -> expired (the place is back as
+// before the refresh), candidate -> rejected (two vehicles see nothing there), and an admin's
+// confirm / reject; the feed's order and cursor, also across a restart of the service on the
+// same database.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "change_evidence.hpp"
+#include "changed_scene.hpp"
+#include "mapdelta/common/cloud_io.hpp"
+#include "mapdelta/common/log.hpp"
+#include "mapdelta/server/map_service.hpp"
+#include "mapdelta/server/memory_storage.hpp"
+#include "server_backends.hpp"
+
+namespace mapdelta::server {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace mapdelta::testing;  // NOLINT: the shared test scene
+
+ServerConfig LifecycleConfigFor(const fs::path& dir) {
+  ServerConfig c;
+  c.storage.database = (dir / "lifecycle.db").string();
+  c.storage.tile_size_m = 20;
+  c.pipeline.max_depth_m = kMaxDepth;
+  c.pipeline.free_space_depth_m = 20;
+  c.pipeline.pixel_stride = 1;
+  c.pipeline.gicp_enabled = false;  // exact poses: the test is about the lifecycle
+  c.classify.th_ch_m = 2.4;
+  return c;
+}
+
+// Whether a cluster's box (user coordinates) comes within 1 m of the box.
+bool Near(const Json& cluster, const Box& box) {
+  const Json& b = cluster["bbox"];
+  for (int i = 0; i < 3; ++i) {
+    if (b[i].get<double>() > box.max[i] + 1 || b[i + 3].get<double>() < box.min[i] - 1)
+      return false;
+  }
+  return true;
+}
+
+class Lifecycle : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override {
+    log::SetLevel(log::Level::kWarn);
+    dir_ = fs::temp_directory_path() / ("mds_lifecycle_" + GetParam() + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    config_ = LifecycleConfigFor(dir_);
+    if (GetParam() != "memory") UseFreshDatabase(GetParam(), dir_, &config_);
+    Open();
+    const fs::path prior = dir_ / "prior.pcd";
+    WriteCloud(prior.string(), PriorScene().Sample(0.5));
+    service_->ImportPriorFile(prior.string(), "prior");
+  }
+  void TearDown() override {
+    service_.reset();
+    fs::remove_all(dir_);
+  }
+  void Open() {
+    service_.reset();
+    service_ = std::make_unique<MapService>(
+        config_, GetParam() == "memory" ? OpenMemoryStorage() : OpenConfiguredStorage(config_));
+  }
+
+  // One drive of `vehicle` along y = y_cam over `scene`, committed; returns the session id.
+  int64_t Drive(const std::string& vehicle, const BoxScene& scene, double y_cam) {
+    const Json camera{{"width", 160}, {"height", 90}, {"fx", 80},
+                      {"fy", 80},     {"cx", 80},     {"cy", 45}};
+    const int64_t s =
+        service_->CreateSession({{"vehicle_id", vehicle}, {"camera", camera}})["session_id"];
+    int64_t seq = 0;
+    for (double x = -5; x <= 45; x += 2.5, ++seq) {
+      const SE3 T = CameraLookingMinusY(x, y_cam, kCameraHeight, kPitch);
+      const auto png = EncodeDepthPng(scene.Render(TestCamera(), T, kMaxDepth));
+      bool created = false;
+      service_->PutKeyframe(s, seq, MetaJson(1000000000LL * (seq + 1), T),
+                            Bytes(png.begin(), png.end()), &created);
+    }
+    const int64_t job = service_->CommitSession(s)["job_id"];
+    service_->RunQueuedJobsNow();
+    EXPECT_EQ(service_->GetJob(job)["state"], "succeeded") << service_->GetJob(job).dump(2);
+    return s;
+  }
+  Json Clusters(std::optional<std::string> state = std::nullopt) {
+    return service_->ListClusters(std::nullopt, state, 1, 1000)["clusters"];
+  }
+  // The id of the cluster of `kind` nearest the box (most points among those near it), or -1.
+  int64_t ClusterAt(const Box& box, const std::string& kind) {
+    int64_t best = -1, most = 0;
+    for (const Json& c : Clusters()) {
+      if (c["kind"] != kind || !Near(c, box) || c["point_count"].get<int64_t>() <= most) continue;
+      best = c["cluster_id"];
+      most = c["point_count"];
+    }
+    return best;
+  }
+  std::string StateOf(int64_t id) { return service_->GetCluster(id)["state"]; }
+
+  fs::path dir_;
+  ServerConfig config_;
+  std::unique_ptr<MapService> service_;
+};
+
+TEST_P(Lifecycle, ConfirmedByTwoVehiclesAppliedByRefreshExpiredWhenThePlaceIsBack) {
+  // 1. One vehicle: candidates on box C (new) and box A (removed).
+  const int64_t s1 = Drive("car-1", ChangedScene(), 25.0);
+  const int64_t c = ClusterAt(kBoxC, "new"), a = ClusterAt(kBoxA, "removed");
+  ASSERT_GT(c, 0) << Clusters().dump(1);
+  ASSERT_GT(a, 0) << Clusters().dump(1);
+  EXPECT_EQ(StateOf(c), "candidate");
+  EXPECT_EQ(StateOf(a), "candidate");
+  const Json created = service_->GetCluster(c);
+  ASSERT_EQ(created["transitions"].size(), 1u);
+  EXPECT_TRUE(created["transitions"][0]["from"].is_null());
+  EXPECT_EQ(created["transitions"][0]["to"], "candidate");
+  EXPECT_EQ(created["transitions"][0]["session_id"], s1);
+  EXPECT_EQ(created["transitions"][0]["actor"], "job");
+  EXPECT_EQ(created["evidence"]["supporting"]["sessions"], Json::array({s1}));
+  EXPECT_GT(created["point_count"].get<int64_t>(), 20);
+
+  // 2. A second vehicle: the same clusters (ids kept) are confirmed.
+  const int64_t s2 = Drive("car-2", ChangedScene(), 24.0);
+  EXPECT_EQ(ClusterAt(kBoxC, "new"), c);
+  EXPECT_EQ(ClusterAt(kBoxA, "removed"), a);
+  const Json confirmed = service_->GetCluster(c);
+  EXPECT_EQ(confirmed["state"], "confirmed") << confirmed.dump(1);
+  ASSERT_EQ(confirmed["transitions"].size(), 2u);
+  EXPECT_EQ(confirmed["transitions"][1]["from"], "candidate");
+  EXPECT_EQ(confirmed["transitions"][1]["session_id"], s2);
+  EXPECT_NE(confirmed["transitions"][1]["cause"].get<std::string>().find(
+                "supported by 2 sessions (" + std::to_string(s1) + ", " + std::to_string(s2) +
+                ") from 2 vehicles"),
+            std::string::npos)
+      << confirmed["transitions"][1]["cause"];
+  EXPECT_EQ(StateOf(a), "confirmed");
+
+  // 3. A refresh merges them into prior version 2: applied.
+  const int64_t refresh = service_->CreateJob(
+      {{"type", "refresh"}, {"bbox", {-30, -10, 70, 40}}, {"min_confidence", 0.7}})["job_id"];
+  service_->RunQueuedJobsNow();
+  ASSERT_EQ(service_->GetJob(refresh)["state"], "succeeded");
+  for (int64_t id : {c, a}) {
+    const Json applied = service_->GetCluster(id);
+    EXPECT_EQ(applied["state"], "applied") << applied.dump(1);
+    EXPECT_EQ(applied["applied_version"], 2);
+    const Json& last = applied["transitions"].back();
+    EXPECT_EQ(last["from"], "confirmed");
+    EXPECT_EQ(last["job_id"], refresh);
+    EXPECT_NE(last["cause"].get<std::string>().find("into prior version 2"), std::string::npos);
+  }
+
+  // 4. Two drives over the original scene (box A back, box C gone): against version 2 that is
+  // the opposite change where each applied cluster is, so both expire.
+  Drive("car-3", PriorScene(), 25.0);
+  Drive("car-4", PriorScene(), 24.0);
+  for (int64_t id : {c, a}) {
+    const Json expired = service_->GetCluster(id);
+    EXPECT_EQ(expired["state"], "expired") << expired.dump(1);
+    EXPECT_EQ(expired["transitions"].back()["from"], "applied");
+  }
+  // The reverse changes are clusters of their own.
+  EXPECT_GT(ClusterAt(kBoxC, "removed"), c);
+  EXPECT_GT(ClusterAt(kBoxA, "new"), a);
+}
+
+TEST_P(Lifecycle, ContradictedCandidatesAreRejectedAndAnAdminDecidesByHand) {
+  const int64_t s1 = Drive("car-1", ChangedScene(), 25.0);
+  const int64_t c = ClusterAt(kBoxC, "new"), a = ClusterAt(kBoxA, "removed");
+  ASSERT_GT(c, 0);
+  ASSERT_GT(a, 0);
+  const int64_t a_points = service_->GetCluster(a)["point_count"];
+  // Two other vehicles see the prior's scene: nothing on C's place, box A standing.
+  const int64_t s2 = Drive("car-2", PriorScene(), 25.0);
+  const int64_t s3 = Drive("car-3", PriorScene(), 24.0);
+  const Json rejected = service_->GetCluster(c);
+  EXPECT_EQ(rejected["state"], "rejected") << rejected.dump(1);
+  EXPECT_EQ(rejected["evidence"]["supporting"]["sessions"], Json::array({s1}));
+  EXPECT_EQ(rejected["evidence"]["contradicting"]["sessions"], Json::array({s2, s3}));
+  EXPECT_NE(rejected["transitions"].back()["cause"].get<std::string>().find("contradicted by 2"),
+            std::string::npos);
+  // Box A is seen standing again: what is left removed is its back, which only the first
+  // vehicle's rays crossed (the others cannot see behind the box), so it stays a candidate.
+  EXPECT_EQ(StateOf(a), "candidate");
+  EXPECT_LT(service_->GetCluster(a)["point_count"].get<int64_t>(), a_points);
+
+  // An admin confirms the rejected one; confirming it again or rejecting an unknown one fails.
+  const Json by_hand = service_->DecideCluster(c, ClusterState::kConfirmed,
+                                               {{"cause", "surveyed: the shed is there"}}, "ops");
+  EXPECT_EQ(by_hand["state"], "confirmed");
+  EXPECT_EQ(by_hand["transitions"].back()["actor"], "admin:ops");
+  EXPECT_EQ(by_hand["transitions"].back()["cause"], "surveyed: the shed is there");
+  EXPECT_TRUE(by_hand["transitions"].back()["job_id"].is_null());
+  const auto expect_code = [&](ApiCode code, auto fn) {
+    try {
+      fn();
+      ADD_FAILURE() << "accepted";
+    } catch (const ApiError& e) {
+      EXPECT_EQ(e.code(), code) << e.what();
+    }
+  };
+  expect_code(ApiCode::kClusterState, [&] {
+    service_->DecideCluster(c, ClusterState::kConfirmed, {{"cause", "again"}}, "ops");
+  });
+  expect_code(ApiCode::kNotFound, [&] {
+    service_->DecideCluster(999999, ClusterState::kRejected, {{"cause", "x"}}, "ops");
+  });
+  expect_code(ApiCode::kInvalidArgument,
+              [&] { service_->DecideCluster(c, ClusterState::kRejected, Json::object(), "ops"); });
+  expect_code(ApiCode::kInvalidArgument, [&] {
+    service_->DecideCluster(c, ClusterState::kRejected, {{"cause", ""}}, "ops");
+  });
+  expect_code(ApiCode::kInvalidArgument, [&] {
+    service_->DecideCluster(c, ClusterState::kRejected, {{"cause", "x"}, {"why", 1}}, "ops");
+  });
+  const Json by_admin =
+      service_->DecideCluster(c, ClusterState::kRejected, {{"cause", "a parked trailer"}}, "ops");
+  EXPECT_EQ(by_admin["state"], "rejected");
+  EXPECT_EQ(by_admin["transitions"].back()["from"], "confirmed");
+
+  // A reclassify with th_ch 10 m no longer finds box A's back removed (the standing front is
+  // within 10 m): the candidate whose supporting session is still in the tile is rejected.
+  const int64_t reclassify =
+      service_->CreateJob({{"type", "reclassify"}, {"params", {{"th_ch_m", 10.0}}}})["job_id"];
+  service_->RunQueuedJobsNow();
+  ASSERT_EQ(service_->GetJob(reclassify)["state"], "succeeded");
+  const Json vanished = service_->GetCluster(a);
+  EXPECT_EQ(vanished["state"], "rejected") << vanished.dump(1);
+  EXPECT_EQ(vanished["transitions"].back()["job_id"], reclassify);
+  EXPECT_NE(vanished["transitions"].back()["cause"].get<std::string>().find("no longer detects it"),
+            std::string::npos);
+  EXPECT_EQ(StateOf(c), "rejected") << "a rejected cluster moved without a decision";
+}
+
+TEST_P(Lifecycle, TheFeedListsEachChangedClusterOnceInOrderAndItsCursorSurvivesARestart) {
+  if (GetParam() == "memory") GTEST_SKIP() << "nothing survives a restart in memory";
+  Drive("car-1", ChangedScene(), 25.0);
+  Drive("car-2", ChangedScene(), 24.0);
+  // Paged one at a time: the same clusters as one big page, each once, seq increasing.
+  const Json all = service_->ChangeFeed(std::nullopt, std::string("1000"));
+  ASSERT_GE(all["clusters"].size(), 2u);
+  EXPECT_FALSE(all["more"].get<bool>());
+  std::vector<int64_t> paged;
+  std::string cursor = "0";
+  for (int guard = 0; guard < 1000; ++guard) {
+    const Json page = service_->ChangeFeed(cursor, std::string("1"));
+    if (page["clusters"].empty()) {
+      EXPECT_EQ(page["next"].get<int64_t>(), std::stoll(cursor)) << "an empty page moved on";
+      break;
+    }
+    ASSERT_EQ(page["clusters"].size(), 1u);
+    EXPECT_GT(page["next"].get<int64_t>(), std::stoll(cursor));
+    EXPECT_EQ(page["next"], page["clusters"][0]["seq"]);
+    paged.push_back(page["clusters"][0]["cluster_id"]);
+    cursor = std::to_string(page["next"].get<int64_t>());
+  }
+  std::vector<int64_t> whole;
+  int64_t previous = 0;
+  for (const Json& c : all["clusters"]) {
+    whole.push_back(c["cluster_id"]);
+    EXPECT_GT(c["seq"].get<int64_t>(), previous);
+    previous = c["seq"];
+  }
+  EXPECT_EQ(paged, whole);
+  const std::string end = cursor;
+
+  // A restart on the same database: the cursor still means the same position, and the changes
+  // made afterwards come after it.
+  Open();
+  EXPECT_TRUE(service_->ChangeFeed(end, std::nullopt)["clusters"].empty());
+  EXPECT_EQ(service_->ChangeFeed(std::string("0"), std::string("1000"))["clusters"],
+            all["clusters"]);
+  const int64_t rejected = whole.front();
+  service_->DecideCluster(rejected, ClusterState::kRejected, {{"cause", "after the restart"}},
+                          "ops");
+  const Json after = service_->ChangeFeed(end, std::nullopt);
+  ASSERT_EQ(after["clusters"].size(), 1u);
+  EXPECT_EQ(after["clusters"][0]["cluster_id"], rejected);
+  EXPECT_EQ(after["clusters"][0]["state"], "rejected");
+  EXPECT_EQ(after["next"].get<int64_t>(), std::stoll(end) + 1);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, Lifecycle, ::testing::Values("memory", "sqlite", "postgres"),
+                         [](const auto& info) { return info.param; });
+
+// Independence by days: one vehicle on two UTC days confirms; on one day it does not.
+TEST(ClusterEvidence, SessionsOfOneVehicleOnDifferentDaysAreIndependent) {
+  LifecycleConfig config;  // k = 2 sessions, m = 2 vehicles or days
+  ExtractedCluster cluster;
+  cluster.by_session[1] = {4, 4};
+  cluster.by_session[2] = {4, 3};
+  cluster.by_session[3] = {4, 1};  // observes it, supports a quarter: contradicts
+  constexpr int64_t kDay = 86'400'000;
+  const std::vector<SessionFacts> same_day = {
+      {1, "car", 10 * kDay + 5, {}}, {2, "car", 10 * kDay + 9, {}}, {3, "van", 10 * kDay, {}}};
+  const ClusterEvidence one_day = EvidenceOf(cluster, same_day);
+  EXPECT_EQ(one_day.supporting.sessions, (std::vector<int64_t>{1, 2}));
+  EXPECT_EQ(one_day.contradicting.sessions, (std::vector<int64_t>{3}));
+  EXPECT_FALSE(EvidenceTransition(ClusterState::kCandidate, one_day, config));
+
+  std::vector<SessionFacts> two_days = same_day;
+  two_days[1].created_ms = 11 * kDay + 9;
+  const ClusterEvidence independent = EvidenceOf(cluster, two_days);
+  EXPECT_EQ(independent.supporting.days, (std::set<std::string>{"1970-01-11", "1970-01-12"}));
+  const auto change = EvidenceTransition(ClusterState::kCandidate, independent, config);
+  ASSERT_TRUE(change);
+  EXPECT_EQ(change->to, ClusterState::kConfirmed);
+  EXPECT_FALSE(EvidenceTransition(ClusterState::kConfirmed, independent, config))
+      << "one contradicting session expired a confirmed cluster";
+  config.confirm_sessions = 3;
+  EXPECT_FALSE(EvidenceTransition(ClusterState::kCandidate, independent, config));
+}
+
+}  // namespace
+}  // namespace mapdelta::server
