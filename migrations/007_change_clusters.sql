@@ -47,3 +47,8 @@ CREATE TABLE change_feed (
   last_seq INTEGER NOT NULL
 );
 INSERT INTO change_feed (id, last_seq) VALUES (1, 0);
+
+-- A session's localization weight in [0, 1] (how much its evidence counts, set by its commit;
+-- NULL = 1) and the report it came from (server/src/localization_quality.hpp).
+ALTER TABLE sessions ADD COLUMN localization_weight REAL;
+ALTER TABLE sessions ADD COLUMN localization_json TEXT;

@@ -1,5 +1,7 @@
 #include "change_evidence.hpp"
 
+#include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <map>
 
@@ -17,7 +19,10 @@ std::string UtcDate(int64_t ms) {
 
 void Add(SessionGroup& g, int64_t session, const SessionFacts* facts) {
   g.sessions.push_back(session);
-  if (!facts) return;  // a session the tile no longer lists: counted, without vehicle or day
+  g.weight += facts ? facts->weight : 1.0;
+  // A session the tile no longer lists counts without vehicle or day; a poorly localized one
+  // cannot make the evidence independent.
+  if (!facts || facts->weight < kCredibleWeight) return;
   g.vehicles.insert(facts->vehicle_id);
   g.days.insert(UtcDate(facts->created_ms));
 }
@@ -30,14 +35,17 @@ std::string Plural(size_t n, const char* word) {
 
 bool SessionGroup::Independent(const LifecycleConfig& c) const {
   const size_t m = static_cast<size_t>(c.confirm_vehicles);
-  return sessions.size() >= static_cast<size_t>(c.confirm_sessions) &&
-         (vehicles.size() >= m || days.size() >= m);
+  constexpr double kRounding = 1e-9;  // weights are sums of decimals
+  return weight + kRounding >= c.confirm_sessions && (vehicles.size() >= m || days.size() >= m);
 }
 
 std::string SessionGroup::Describe() const {
   std::string ids;
   for (int64_t s : sessions) ids += (ids.empty() ? "" : ", ") + std::to_string(s);
-  return Plural(sessions.size(), "session") + (ids.empty() ? "" : " (" + ids + ")") + " from " +
+  char w[32] = "";
+  if (std::abs(weight - static_cast<double>(sessions.size())) > 1e-9)
+    std::snprintf(w, sizeof w, "; weight %.2f", weight);
+  return Plural(sessions.size(), "session") + (ids.empty() ? "" : " (" + ids + w + ")") + " from " +
          Plural(vehicles.size(), "vehicle") + " on " + Plural(days.size(), "day");
 }
 
@@ -60,7 +68,8 @@ ClusterEvidence EvidenceOf(const ExtractedCluster& cluster,
 
 nlohmann::json ToJson(const ClusterEvidence& e) {
   const auto group = [](const SessionGroup& g) {
-    return nlohmann::json{{"sessions", g.sessions}, {"vehicles", g.vehicles}, {"days", g.days}};
+    return nlohmann::json{
+        {"sessions", g.sessions}, {"weight", g.weight}, {"vehicles", g.vehicles}, {"days", g.days}};
   };
   return nlohmann::json{{"supporting", group(e.supporting)},
                         {"contradicting", group(e.contradicting)}};
@@ -74,8 +83,7 @@ std::vector<int64_t> SupportingSessions(const std::string& evidence_json) {
 
 std::optional<StateChange> EvidenceTransition(ClusterState state, const ClusterEvidence& e,
                                               const LifecycleConfig& config) {
-  const size_t support = e.supporting.sessions.size();
-  const size_t contra = e.contradicting.sessions.size();
+  const double support = e.supporting.weight, contra = e.contradicting.weight;
   const bool contradicted = e.contradicting.Independent(config) && contra > support;
   const std::string balance = "; supported by " + e.supporting.Describe();
   if (state == ClusterState::kCandidate && contradicted) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "change_clusters.hpp"
+#include "localization_quality.hpp"
 #include "mapdelta/server/change_cluster_store.hpp"
 #include "mapdelta/server/config.hpp"
 
@@ -16,9 +17,10 @@ namespace mapdelta::server {
 
 struct SessionGroup {
   std::vector<int64_t> sessions;
-  std::set<std::string> vehicles;
-  std::set<std::string> days;  // UTC dates, YYYY-MM-DD
-  // At least k sessions from at least m vehicles or on at least m days.
+  double weight = 0;  // the sessions' localization weights, summed (localization_quality.hpp)
+  std::set<std::string> vehicles;  // of the sessions with weight >= kCredibleWeight only
+  std::set<std::string> days;      // UTC dates (YYYY-MM-DD) of those sessions
+  // A weight of at least k, from at least m vehicles or on at least m days.
   bool Independent(const LifecycleConfig& c) const;
   std::string Describe() const;  // "2 sessions (3, 4) from 2 vehicles on 1 day"
 };

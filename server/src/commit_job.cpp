@@ -16,6 +16,7 @@
 #include "blob_codec.hpp"
 #include "commit_passes.hpp"
 #include "jobs.hpp"
+#include "localization_quality.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/registration/gicp.hpp"
 #include "mapdelta/common/registration/registration_gate.hpp"
@@ -131,6 +132,18 @@ std::map<TileId, PointCloud> TouchedTiles(JobContext& ctx, const TileGrid& grid,
   return by_tile;
 }
 
+// The largest position standard deviation of every keyframe that uploaded a covariance.
+std::vector<double> UploadedPositionSigmas(Storage& storage, const SessionRecord& session) {
+  std::vector<double> out;
+  storage.sessions().ForEachKeyframe(session.id, 0, session.keyframe_count, false,
+                                     [&](const KeyframeRecord& k) {
+                                       if (!k.covariance_json) return;
+                                       if (auto s = PositionSigma(*k.covariance_json))
+                                         out.push_back(*s);
+                                     });
+  return out;
+}
+
 struct Classified {
   int64_t tiles = 0, new_points = 0, removed_points = 0;
   Json by = Json::object();  // worker id -> tiles it classified
@@ -190,6 +203,10 @@ Json RunCommitJob(JobContext& ctx) {
   const std::optional<int64_t> prior_version = ctx.storage.priors().LatestVersion();
   const Registration reg = AlignToPrior(ctx, grid, cloud, prior_version);
   cloud = Transform(cloud, reg.T_correction);
+  // How much this session's evidence counts, before any tile sees it (localization_quality.hpp).
+  const LocalizationQuality quality =
+      AssessLocalization(reg.report, UploadedPositionSigmas(ctx.storage, *session), pc);
+  ctx.storage.sessions().PutLocalization(session_id, quality.weight, quality.ToJson().dump());
   ctx.CheckStop();
   const auto t2 = std::chrono::steady_clock::now();
 
@@ -250,6 +267,7 @@ Json RunCommitJob(JobContext& ctx) {
               {"removed_points", classified.removed_points},
               {"prior_version", prior_version.value_or(0)},
               {"registration", reg.report},
+              {"localization", quality.ToJson()},
               {"seconds",
                {{"session_cloud", secs(t0, t1)},
                 {"registration", secs(t1, t2)},

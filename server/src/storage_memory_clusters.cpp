@@ -26,8 +26,8 @@ class MemoryClusterRows final : public ClusterRows {
     for (int64_t id : state->second.sessions) {
       auto s = t_.sessions.find(id);
       if (s == t_.sessions.end()) continue;
-      out.push_back(
-          {id, s->second.record.vehicle_id, s->second.record.created_ms, s->second.record.job_id});
+      out.push_back({id, s->second.record.vehicle_id, s->second.record.created_ms,
+                     s->second.record.job_id, s->second.record.localization_weight.value_or(1.0)});
     }
     return out;
   }

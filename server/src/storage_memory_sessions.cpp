@@ -119,6 +119,18 @@ void MemorySessionStore::Finish(int64_t session_id, SessionState state,
   }
 }
 
+void MemorySessionStore::PutLocalization(int64_t session_id, double weight,
+                                         const std::string& json) {
+  auto lock = Lock();
+  auto it = t().sessions.find(session_id);
+  if (it == t().sessions.end()) {
+    throw Error(ErrorCode::kConflict,
+                "localization for unknown session " + std::to_string(session_id));
+  }
+  it->second.record.localization_weight = weight;
+  it->second.record.localization_json = json;
+}
+
 void MemorySessionStore::PutObserved(int64_t session_id, const Bytes& observed) {
   auto lock = Lock();
   auto it = t().sessions.find(session_id);

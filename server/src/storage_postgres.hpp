@@ -69,6 +69,7 @@ class PostgresSessionStore final : public SessionStore, PostgresArea {
               const std::optional<std::string>& registration_json, int64_t now_ms) override;
   void PutObserved(int64_t session_id, const Bytes& observed) override;
   std::optional<Bytes> GetObserved(int64_t session_id) override;
+  void PutLocalization(int64_t session_id, double weight, const std::string& json) override;
 };
 
 class PostgresJobStore final : public JobStore, PostgresArea {

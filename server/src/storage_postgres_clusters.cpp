@@ -75,12 +75,13 @@ class PostgresClusterRows final : public ClusterRows {
   }
   std::vector<SessionFacts> TileSessions(const TileId& tile) override {
     const pg::Result r = c_.Query(
-        "SELECT s.id, s.vehicle_id, s.created_ms, s.job_id FROM tile_sessions t "
+        "SELECT s.id, s.vehicle_id, s.created_ms, s.job_id, "
+        "COALESCE(s.localization_weight, 1.0)::float8 FROM tile_sessions t "
         "JOIN sessions s ON s.id = t.session_id WHERE t.tile = $1 ORDER BY s.id",
         pg::Params().Add(tile.ToString()));
     std::vector<SessionFacts> out;
     for (int i = 0; i < r.rows(); ++i) {
-      out.push_back({r.Int(i, 0), r.Text(i, 1), r.Int(i, 2), r.OptInt(i, 3)});
+      out.push_back({r.Int(i, 0), r.Text(i, 1), r.Int(i, 2), r.OptInt(i, 3), r.Real(i, 4)});
     }
     return out;
   }

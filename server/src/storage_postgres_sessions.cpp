@@ -31,7 +31,7 @@ std::optional<SessionRecord> PostgresSessionStore::Get(int64_t id) {
       "job_id, registration_json, (SELECT COUNT(*) "
       "FROM keyframes k WHERE k.session_id = s.id), "
       "(SELECT COALESCE(MAX(t_ns), 0) FROM keyframes "
-      "k WHERE k.session_id = s.id) "
+      "k WHERE k.session_id = s.id), localization_weight, localization_json "
       "FROM sessions s WHERE s.id = $1",
       pg::Params().Add(id));
   if (r.rows() == 0) return std::nullopt;
@@ -47,6 +47,8 @@ std::optional<SessionRecord> PostgresSessionStore::Get(int64_t id) {
   s.registration_json = r.OptText(0, 8);
   s.keyframe_count = r.Int(0, 9);
   s.last_t_ns = r.Int(0, 10);
+  if (!r.IsNull(0, 11)) s.localization_weight = r.Real(0, 11);
+  s.localization_json = r.OptText(0, 12);
   return s;
 }
 
@@ -181,6 +183,18 @@ void PostgresSessionStore::Finish(int64_t session_id, SessionState state,
         pg::Params().Add(session_id));
   }
   tx.Commit();
+}
+
+void PostgresSessionStore::PutLocalization(int64_t session_id, double weight,
+                                           const std::string& json) {
+  auto c = Connect();
+  const pg::Result r =
+      c->Query("UPDATE sessions SET localization_weight = $1, localization_json = $2 WHERE id = $3",
+               pg::Params().Add(weight).Add(json).Add(session_id));
+  if (r.affected() == 0) {
+    throw Error(ErrorCode::kConflict,
+                "localization for unknown session " + std::to_string(session_id));
+  }
 }
 
 void PostgresSessionStore::PutObserved(int64_t session_id, const Bytes& observed) {

@@ -65,6 +65,7 @@ class SqliteSessionStore final : public SessionStore, SqliteArea {
               const std::optional<std::string>& registration_json, int64_t now_ms) override;
   void PutObserved(int64_t session_id, const Bytes& observed) override;
   std::optional<Bytes> GetObserved(int64_t session_id) override;
+  void PutLocalization(int64_t session_id, double weight, const std::string& json) override;
 };
 
 class SqliteJobStore final : public JobStore, SqliteArea {

@@ -76,12 +76,13 @@ class SqliteClusterRows final : public ClusterRows {
   }
   std::vector<SessionFacts> TileSessions(const TileId& tile) override {
     sql::Stmt s(db_,
-                "SELECT s.id, s.vehicle_id, s.created_ms, s.job_id FROM tile_sessions t "
+                "SELECT s.id, s.vehicle_id, s.created_ms, s.job_id, "
+                "COALESCE(s.localization_weight, 1.0) FROM tile_sessions t "
                 "JOIN sessions s ON s.id = t.session_id WHERE t.tile = ? ORDER BY s.id");
     s.Bind(1, tile.ToString());
     std::vector<SessionFacts> out;
     while (s.Step()) {
-      SessionFacts f{s.Int(0), s.Text(1), s.Int(2), std::nullopt};
+      SessionFacts f{s.Int(0), s.Text(1), s.Int(2), std::nullopt, s.Real(4)};
       if (!s.IsNull(3)) f.job_id = s.Int(3);
       out.push_back(std::move(f));
     }

@@ -22,8 +22,8 @@ std::optional<SessionRecord> SqliteSessionStore::Get(int64_t id) {
   sql::Stmt s(db(),
               "SELECT id, vehicle_id, camera_json, depth_scale, state, created_ms, committed_ms, "
               "job_id, registration_json, (SELECT COUNT(*) FROM keyframes WHERE session_id = id), "
-              "(SELECT COALESCE(MAX(t_ns), 0) FROM keyframes WHERE session_id = id) "
-              "FROM sessions WHERE id = ?");
+              "(SELECT COALESCE(MAX(t_ns), 0) FROM keyframes WHERE session_id = id), "
+              "localization_weight, localization_json FROM sessions WHERE id = ?");
   s.Bind(1, id);
   if (!s.Step()) return std::nullopt;
   SessionRecord r;
@@ -38,6 +38,8 @@ std::optional<SessionRecord> SqliteSessionStore::Get(int64_t id) {
   r.registration_json = s.OptText(8);
   r.keyframe_count = s.Int(9);
   r.last_t_ns = s.Int(10);
+  if (!s.IsNull(11)) r.localization_weight = s.Real(11);
+  r.localization_json = s.OptText(12);
   return r;
 }
 
@@ -163,6 +165,18 @@ void SqliteSessionStore::Finish(int64_t session_id, SessionState state,
     c.Bind(1, session_id).Run();
   }
   tx.Commit();
+}
+
+void SqliteSessionStore::PutLocalization(int64_t session_id, double weight,
+                                         const std::string& json) {
+  auto lock = Lock();
+  sql::Stmt s(db(),
+              "UPDATE sessions SET localization_weight = ?, localization_json = ? WHERE id = ?");
+  s.Bind(1, weight).Bind(2, json).Bind(3, session_id).Run();
+  if (db().Changes() == 0) {
+    throw Error(ErrorCode::kConflict,
+                "localization for unknown session " + std::to_string(session_id));
+  }
 }
 
 void SqliteSessionStore::PutObserved(int64_t session_id, const Bytes& observed) {

@@ -3,7 +3,8 @@
 // alone: what a plan writes (new ids, one sequence number per transition in order), that it is
 // written in the publish's own transaction (a failing plan leaves the publish unwritten), what
 // the plan is given (the tile's clusters that are not expired, its sessions with their vehicles,
-// days and commit jobs; a refresh's version and points), the feed's order, and admin transitions.
+// days, commit jobs and localization weights; a refresh's version and points), the feed's order,
+// and admin transitions.
 #include "storage_contract.hpp"
 
 namespace mapdelta::server::testing {
@@ -267,6 +268,25 @@ TEST_P(StorageContract, AnAdminTransitionChecksTheStateAndTakesTheNextSeq) {
   ASSERT_TRUE(s().clusters().Transition(2, {ClusterState::kCandidate}, t));
   s().tiles().ApplyChanges(0, {Changes(1, 1, 2, 0, 0.5)});
   EXPECT_TRUE(lifecycle->calls.back().active.empty()) << "an expired cluster was planned again";
+}
+
+TEST_P(StorageContract, ASessionsLocalizationWeightIsStoredAndGivenToThePlan) {
+  auto lifecycle = std::make_shared<ScriptedLifecycle>();
+  s().tiles().SetClusterLifecycle(lifecycle);
+  const int64_t a = NewSession("car-a"), b = NewSession("car-b");
+  ExpectError(ErrorCode::kConflict, [&] { s().sessions().PutLocalization(b + 1, 0.5, "{}"); });
+  EXPECT_FALSE(s().sessions().Get(a)->localization_weight);
+  EXPECT_FALSE(s().sessions().Get(a)->localization_json);
+  s().sessions().PutLocalization(a, 0.25, R"({"weight":0.25})");
+  EXPECT_DOUBLE_EQ(*s().sessions().Get(a)->localization_weight, 0.25);
+  EXPECT_EQ(s().sessions().Get(a)->localization_json, R"({"weight":0.25})");
+  const int64_t job = s().jobs().Create(JobType::kCommit, "{}", 1);
+  s().tiles().ApplyUpdates(job, {State(0, 0, {a, b}, 1)}, 5);
+  s().tiles().ApplyChanges(0, {Changes(0, 0, 1, 0, 0.5)});
+  const std::vector<SessionFacts>& facts = lifecycle->calls.back().publication.sessions;
+  ASSERT_EQ(facts.size(), 2u);
+  EXPECT_DOUBLE_EQ(facts[0].weight, 0.25);
+  EXPECT_DOUBLE_EQ(facts[1].weight, 1.0) << "a session without a weight counts fully";
 }
 
 TEST_P(StorageContract, ClustersAreListedByTileRectAndStateWithPaging) {

@@ -58,6 +58,7 @@ struct SessionFacts {
   std::string vehicle_id;
   int64_t created_ms = 0;
   std::optional<int64_t> job_id;  // its commit job
+  double weight = 1.0;            // its localization weight (1 until its commit sets one)
 };
 
 // One tile being published: either a new classification or a refresh that merged the tile into

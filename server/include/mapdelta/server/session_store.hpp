@@ -18,6 +18,9 @@ struct SessionRecord {
   int64_t created_ms = 0;
   std::optional<int64_t> committed_ms, job_id;
   std::optional<std::string> registration_json;
+  // How much its evidence about changes counts (localization_quality.hpp), set by its commit.
+  std::optional<double> localization_weight;
+  std::optional<std::string> localization_json;
   int64_t keyframe_count = 0;  // derived on read
   int64_t last_t_ns = 0;       // derived on read: greatest keyframe t_ns, 0 without keyframes
 };
@@ -69,6 +72,9 @@ class SessionStore {
   // stored one unless nullopt. kCommitted also drops the keyframes' upload-time clouds.
   virtual void Finish(int64_t session_id, SessionState state,
                       const std::optional<std::string>& registration_json, int64_t now_ms) = 0;
+  // Sets the session's localization weight in [0, 1] and its report (JSON text). Throws
+  // Error(kConflict) for an unknown session.
+  virtual void PutLocalization(int64_t session_id, double weight, const std::string& json) = 0;
   // Replaces the session's observed octree. Throws Error(kConflict) for an unknown session.
   virtual void PutObserved(int64_t session_id, const Bytes& observed) = 0;
   virtual std::optional<Bytes> GetObserved(int64_t session_id) = 0;
