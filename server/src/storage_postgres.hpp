@@ -149,6 +149,9 @@ pg::Params& AddTileRange(pg::Params& p, const Rect& r);
 void FenceJob(pg::Connection& c, int64_t job_id, const std::string& worker_id);
 // The ON CONFLICT clause of an INSERT INTO tile_changes: a tile's row is replaced whole.
 extern const char* const kUpsertTileChanges;
+// A publishing write with a lifecycle takes the feed's lock first, before any row of its own, so
+// that publishers and admin decisions always lock in one order (no deadlock between them).
+void LockClusterFeed(pg::Connection& c, const ClusterLifecycle* lifecycle);
 // The published tile's clusters by the lifecycle (cluster_rows.hpp); nothing without one.
 void ReconcileTileClusters(pg::Connection& c, const ClusterLifecycle* lifecycle,
                            const TilePublication& publication);

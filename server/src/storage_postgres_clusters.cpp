@@ -134,6 +134,10 @@ class PostgresClusterRows final : public ClusterRows {
 
 }  // namespace
 
+void pg_rows::LockClusterFeed(pg::Connection& c, const ClusterLifecycle* lifecycle) {
+  if (lifecycle) PostgresClusterRows(c).LockFeed();
+}
+
 void pg_rows::ReconcileTileClusters(pg::Connection& c, const ClusterLifecycle* lifecycle,
                                     const TilePublication& publication) {
   if (!lifecycle) return;

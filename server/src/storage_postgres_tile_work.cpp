@@ -102,6 +102,7 @@ std::vector<TileWorkItem> PostgresJobStore::ListTileWork(int64_t job_id) {
 PublishOutcome PostgresTileStore::PublishTileWork(int64_t job_id) {
   auto c = Connect();
   pg::Transaction tx(*c);
+  pg_rows::LockClusterFeed(*c, lifecycle_.get());
   // Locks the job's items: a completion or a second publisher waits for this transaction.
   const pg::Result r =
       c->Query("SELECT done_by IS NULL, published FROM tile_work WHERE job_id = $1 FOR UPDATE",

@@ -129,6 +129,7 @@ void PostgresTileStore::ApplyChanges(int64_t job_id,
                                      const std::vector<TileChangesRecord>& changes) {
   auto c = Connect();
   pg::Transaction tx(*c);
+  pg_rows::LockClusterFeed(*c, lifecycle_.get());
   if (job_id > 0) pg_rows::FenceJob(*c, job_id, worker());
   for (const TileChangesRecord& t : changes) {
     WriteChanges(*c, t);
@@ -188,6 +189,7 @@ int64_t PostgresTileStore::ApplyRefresh(int64_t job_id, const PriorVersionRecord
                                         const std::string& result_json, int64_t now_ms) {
   auto c = Connect();
   pg::Transaction tx(*c);
+  pg_rows::LockClusterFeed(*c, lifecycle_.get());
   pg_rows::FenceJob(*c, job_id, worker());
   const int64_t previous = pg_rows::LockPriorVersions(*c);
   const int64_t version = previous + 1;
