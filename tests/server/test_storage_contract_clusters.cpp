@@ -5,6 +5,10 @@
 // the plan is given (the tile's clusters that are not expired, its sessions with their vehicles,
 // days, commit jobs and localization weights; a refresh's version and points), the feed's order,
 // and admin transitions.
+#include <atomic>
+#include <set>
+#include <thread>
+
 #include "storage_contract.hpp"
 
 namespace mapdelta::server::testing {
@@ -287,6 +291,58 @@ TEST_P(StorageContract, ASessionsLocalizationWeightIsStoredAndGivenToThePlan) {
   ASSERT_EQ(facts.size(), 2u);
   EXPECT_DOUBLE_EQ(facts[0].weight, 0.25);
   EXPECT_DOUBLE_EQ(facts[1].weight, 1.0) << "a session without a weight counts fully";
+}
+
+// Several writers at once (PostgreSQL: one pool connection each, as several processes would
+// be): every transition gets its own number, with none skipped, and each cluster's seq is its
+// latest transition's.
+TEST_P(StorageContract, ConcurrentTransitionsGetDistinctContiguousNumbers) {
+  auto lifecycle = std::make_shared<ScriptedLifecycle>();
+  s().tiles().SetClusterLifecycle(lifecycle);
+  constexpr int kClusters = 4, kRounds = 6;
+  std::vector<TileChangesRecord> tiles;
+  for (int i = 0; i < kClusters; ++i) tiles.push_back(Changes(i, 0, 1, 0, 0.5));
+  s().tiles().ApplyChanges(0, tiles);  // clusters 1..4, seq 1..4
+  std::vector<std::thread> writers;
+  std::atomic<int> failures{0};
+  for (int id = 1; id <= kClusters; ++id) {
+    writers.emplace_back([&, id] {
+      for (int round = 0; round < kRounds; ++round) {
+        ClusterTransitionRecord t;
+        t.to = round % 2 == 0 ? ClusterState::kConfirmed : ClusterState::kRejected;
+        t.at_ms = 100 + round;
+        t.cause = "round " + std::to_string(round);
+        t.actor = "admin:test";
+        const auto from = round % 2 == 0 ? std::vector<ClusterState>{ClusterState::kCandidate,
+                                                                     ClusterState::kRejected}
+                                         : std::vector<ClusterState>{ClusterState::kConfirmed};
+        try {
+          if (!s().clusters().Transition(id, from, t)) ++failures;
+        } catch (const std::exception&) {
+          ++failures;
+        }
+      }
+    });
+  }
+  // A publisher at the same time (tiles of their own).
+  for (int i = 0; i < kRounds; ++i) s().tiles().ApplyChanges(0, {Changes(10 + i, 0, 1, 0, 0.5)});
+  for (std::thread& w : writers) w.join();
+  EXPECT_EQ(failures, 0);
+  const int64_t total = kClusters + kClusters * kRounds + kRounds;
+  EXPECT_EQ(s().clusters().LastSeq(), total);
+  std::set<int64_t> seqs;
+  for (int64_t id = 1; id <= kClusters + kRounds; ++id) {
+    const std::vector<ClusterTransitionRecord> history = s().clusters().History(id);
+    ASSERT_FALSE(history.empty());
+    for (size_t i = 1; i < history.size(); ++i) EXPECT_LT(history[i - 1].seq, history[i].seq);
+    for (const auto& t : history)
+      EXPECT_TRUE(seqs.insert(t.seq).second) << "seq " << t.seq << " twice";
+    EXPECT_EQ(s().clusters().Get(id)->seq, history.back().seq);
+  }
+  EXPECT_EQ(static_cast<int64_t>(seqs.size()), total);
+  EXPECT_EQ(*seqs.begin(), 1);
+  EXPECT_EQ(*seqs.rbegin(), total) << "a number was skipped";
+  EXPECT_EQ(static_cast<int64_t>(s().clusters().Feed(0, 1000).size()), kClusters + kRounds);
 }
 
 TEST_P(StorageContract, ClustersAreListedByTileRectAndStateWithPaging) {
