@@ -5,6 +5,7 @@
 
 #include "api_json.hpp"
 #include "blob_codec.hpp"
+#include "change_clusters.hpp"
 #include "commit_passes.hpp"
 #include "jobs.hpp"
 #include "mapdelta/common/log.hpp"
@@ -102,6 +103,67 @@ struct PointEq {
   bool operator()(const Point& a, const Point& b) const { return a == b; }
 };
 
+// Which change points a refresh merges into the prior.
+struct MergeRule {
+  double min_confidence = 0.5;
+  int64_t min_support = 1;
+  bool confirmed_only = false;  // only points in the voxels of the tile's confirmed clusters
+  double cluster_voxel_m = 1.0;
+};
+
+// Voxel keys of the tile's confirmed change clusters (change_lifecycle.hpp).
+std::set<VoxelKey> ConfirmedVoxels(Storage& storage, const TileId& tile) {
+  constexpr int64_t kMaxClustersPerTile = 100000;  // a tile holds far fewer
+  const Rect one{double(tile.ix()), double(tile.iy()), double(tile.ix()), double(tile.iy())};
+  int64_t total = 0;
+  std::set<VoxelKey> out;
+  for (const ChangeClusterRecord& c :
+       storage.clusters().List(one, ClusterState::kConfirmed, kMaxClustersPerTile, 0, &total)) {
+    for (const VoxelKey& k : DecodeVoxelKeys(c.voxels)) out.insert(k);
+  }
+  return out;
+}
+
+// Step 1 of a refresh for one tile: its prior at `latest` without the removed points that pass
+// the rule, with the new ones that do; nullopt if none passes.
+std::optional<RefreshTileWrite> MergeIntoPrior(Storage& storage, const TileId& tile, int64_t latest,
+                                               const std::vector<ChangePoint>& changes,
+                                               const MergeRule& rule) {
+  std::set<VoxelKey> confirmed;
+  if (rule.confirmed_only) confirmed = ConfirmedVoxels(storage, tile);
+  std::unordered_set<Point, PointHash, PointEq> removed;
+  PointCloud added;
+  for (const ChangePoint& c : changes) {
+    if (c.confidence < rule.min_confidence ||
+        static_cast<int64_t>(c.supported_by.size()) < rule.min_support)
+      continue;
+    if (rule.confirmed_only && !confirmed.count(VoxelOf(c.position, rule.cluster_voxel_m)))
+      continue;
+    if (c.kind == ChangeKind::kRemoved)
+      removed.insert(c.position);
+    else
+      added.push_back(c.position);
+  }
+  if (removed.empty() && added.empty()) return std::nullopt;
+  PointCloud points;
+  int64_t from_version = 0;
+  if (auto prior = storage.priors().GetTile(tile, latest)) {
+    from_version = prior->version;
+    for (const Point& p : DecodePoints(prior->points)) {
+      if (!removed.count(p)) points.push_back(p);
+    }
+  }
+  RefreshTileWrite w;
+  w.tile = tile;
+  w.from_version = from_version;
+  w.removed = static_cast<int64_t>(removed.size());
+  w.added = static_cast<int64_t>(added.size());
+  points.insert(points.end(), added.begin(), added.end());
+  w.point_count = static_cast<int64_t>(points.size());
+  w.points = EncodePoints(points);
+  return w;
+}
+
 }  // namespace
 
 namespace {
@@ -134,8 +196,11 @@ void ReclassifyAround(JobContext& ctx, const TileGrid& grid, const std::vector<T
 Json RunRefreshJob(JobContext& ctx) {
   ctx.WaitForEarlierJobs();  // it reads and rewrites tiles that earlier jobs write
   const Json params = Json::parse(ctx.job.params_json);
-  const double min_confidence = params.value("min_confidence", 0.5);
-  const int64_t min_support = params.value("min_support", int64_t{1});
+  MergeRule rule;
+  rule.min_confidence = params.value("min_confidence", 0.5);
+  rule.min_support = params.value("min_support", int64_t{1});
+  rule.confirmed_only = params.value("confirmed_only", false);
+  rule.cluster_voxel_m = ctx.config.lifecycle.cluster_voxel_m;
   const TileGrid grid(ctx.config.storage.tile_size_m);
   const ClassifyConfig cc = CurrentClassifyConfig(ctx.storage, ctx.config.classify);
 
@@ -169,36 +234,11 @@ Json RunRefreshJob(JobContext& ctx) {
                              PipelineDetectionParams(ctx.config.pipeline), cache)
                     .changes;
     }
-    std::unordered_set<Point, PointHash, PointEq> removed;
-    PointCloud added;
-    for (const ChangePoint& c : changes) {
-      if (c.confidence < min_confidence ||
-          static_cast<int64_t>(c.supported_by.size()) < min_support)
-        continue;
-      if (c.kind == ChangeKind::kRemoved)
-        removed.insert(c.position);
-      else
-        added.push_back(c.position);
-    }
-    if (removed.empty() && added.empty()) continue;
-    PointCloud points;
-    int64_t from_version = 0;
-    if (auto prior = ctx.storage.priors().GetTile(tile, *latest)) {
-      from_version = prior->version;
-      for (const Point& p : DecodePoints(prior->points)) {
-        if (!removed.count(p)) points.push_back(p);
-      }
-    }
-    RefreshTileWrite w;
-    w.tile = tile;
-    w.from_version = from_version;
-    w.removed = static_cast<int64_t>(removed.size());
-    w.added = static_cast<int64_t>(added.size());
-    points.insert(points.end(), added.begin(), added.end());
-    w.point_count = static_cast<int64_t>(points.size());
-    w.points = EncodePoints(points);
-    tiles_report.push_back({{"tile", tile.ToString()}, {"added", w.added}, {"removed", w.removed}});
-    writes.push_back(std::move(w));
+    std::optional<RefreshTileWrite> w = MergeIntoPrior(ctx.storage, tile, *latest, changes, rule);
+    if (!w) continue;
+    tiles_report.push_back(
+        {{"tile", tile.ToString()}, {"added", w->added}, {"removed", w->removed}});
+    writes.push_back(std::move(*w));
     ctx.Progress(0.8 * (i + 1) / tiles.size(), "merged tile " + tile.ToString());
   }
   if (writes.empty()) {
@@ -212,8 +252,9 @@ Json RunRefreshJob(JobContext& ctx) {
   Json result{{"prior_version", *latest + 1},
               {"parent_version", *latest},
               {"tiles", tiles_report},
-              {"min_confidence", min_confidence},
-              {"min_support", min_support}};
+              {"min_confidence", rule.min_confidence},
+              {"min_support", rule.min_support}};
+  if (rule.confirmed_only) result["confirmed_only"] = true;
   ctx.CheckStop();  // the last point where a cancel stops the refresh
   const int64_t version =
       ctx.storage.tiles().ApplyRefresh(ctx.job.id, meta, writes, result.dump(), NowMs());

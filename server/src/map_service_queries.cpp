@@ -329,10 +329,10 @@ FilePayload MapService::GetObservedTile(const std::string& tile_text) {
 // ---------------------------------------------------------------- admin jobs
 
 Json MapService::CreateJob(const Json& body) {
-  RejectUnknownFields(
-      body,
-      {"type", "tiles", "bbox", "min_confidence", "min_support", "params", "version", "cause"},
-      "body");
+  RejectUnknownFields(body,
+                      {"type", "tiles", "bbox", "min_confidence", "min_support", "confirmed_only",
+                       "params", "version", "cause"},
+                      "body");
   const std::string type_text = StringField(body, "type");
   const std::optional<JobType> type =
       ParseEnum<JobType>(type_text);  // commit: POST .../commit only
@@ -384,11 +384,17 @@ Json MapService::CreateJob(const Json& body) {
     }
     if (params["min_support"].get<int64_t>() < 0)
       throw ApiError(ApiCode::kInvalidArgument, "field 'min_support': must be >= 0");
+    if (body.contains("confirmed_only")) {
+      if (!body["confirmed_only"].is_boolean())
+        throw ApiError(ApiCode::kInvalidArgument, "field 'confirmed_only': expected true or false");
+      params["confirmed_only"] = body["confirmed_only"];
+    }
     RequirePriorVersion();
   } else if (type == JobType::kReclassify) {
-    if (body.contains("min_confidence") || body.contains("min_support")) {
+    if (body.contains("min_confidence") || body.contains("min_support") ||
+        body.contains("confirmed_only")) {
       throw ApiError(ApiCode::kInvalidArgument,
-                     "reclassify takes 'params', not min_confidence/min_support");
+                     "reclassify takes 'params', not min_confidence/min_support/confirmed_only");
     }
     const Json p = body.value("params", Json::object());
     ClassifyConfigFromJson(p, config_.classify);  // validate now, not in the job

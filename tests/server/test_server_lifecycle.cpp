@@ -264,6 +264,45 @@ TEST_P(Lifecycle, ContradictedCandidatesAreRejectedAndAnAdminDecidesByHand) {
   EXPECT_EQ(StateOf(c), "rejected") << "a rejected cluster moved without a decision";
 }
 
+// A refresh with confirmed_only merges the changes of confirmed clusters only: with one vehicle's
+// candidates nothing, after a second vehicle confirmed them box C and box A's removal.
+TEST_P(Lifecycle, ARefreshOfConfirmedClustersOnlyWaitsForTheirConfirmation) {
+  const Json refresh{{"type", "refresh"},
+                     {"bbox", {-30, -10, 70, 40}},
+                     {"min_confidence", 0.0},
+                     {"confirmed_only", true}};
+  Drive("car-1", ChangedScene(), 25.0);
+  const int64_t c = ClusterAt(kBoxC, "new");
+  ASSERT_GT(c, 0);
+  const int64_t early = service_->CreateJob(refresh)["job_id"];
+  service_->RunQueuedJobsNow();
+  const Json not_yet = service_->GetJob(early);
+  ASSERT_EQ(not_yet["state"], "succeeded");
+  EXPECT_EQ(not_yet["result"]["prior_version"], 1) << not_yet.dump(1);
+  EXPECT_EQ(service_->storage().priors().LatestVersion(), 1);
+  EXPECT_EQ(StateOf(c), "candidate");
+
+  Drive("car-2", ChangedScene(), 24.0);
+  ASSERT_EQ(StateOf(c), "confirmed");
+  const int64_t job = service_->CreateJob(refresh)["job_id"];
+  service_->RunQueuedJobsNow();
+  const Json merged = service_->GetJob(job);
+  ASSERT_EQ(merged["state"], "succeeded");
+  EXPECT_EQ(merged["result"]["prior_version"], 2);
+  EXPECT_EQ(merged["result"]["confirmed_only"], true);
+  EXPECT_EQ(StateOf(c), "applied");
+  for (const Json& t : merged["result"]["tiles"]) {
+    EXPECT_GT(t["added"].get<int64_t>() + t["removed"].get<int64_t>(), 0) << t.dump();
+  }
+  // The job's parameters are checked before it is queued.
+  for (const Json& bad :
+       {Json{{"type", "refresh"}, {"bbox", {0, 0, 1, 1}}, {"confirmed_only", "yes"}},
+        Json{{"type", "reclassify"}, {"confirmed_only", true}},
+        Json{{"type", "rollback"}, {"version", 1}, {"confirmed_only", true}}}) {
+    EXPECT_THROW(service_->CreateJob(bad), ApiError) << bad.dump();
+  }
+}
+
 TEST_P(Lifecycle, TheFeedListsEachChangedClusterOnceInOrderAndItsCursorSurvivesARestart) {
   if (GetParam() == "memory") GTEST_SKIP() << "nothing survives a restart in memory";
   Drive("car-1", ChangedScene(), 25.0);
