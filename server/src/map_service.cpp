@@ -231,6 +231,7 @@ Json MapService::GetSession(int64_t session_id) {
     }
   }
   if (s->registration_json) j["registration"] = Json::parse(*s->registration_json);
+  if (s->localization_json) j["localization"] = Json::parse(*s->localization_json);
   return j;
 }
 

@@ -384,6 +384,7 @@ TEST_P(Lifecycle, ShiftedSessionsCannotConfirmAFalseChangeThatWellLocalizedOnesC
   ASSERT_TRUE(report);
   EXPECT_DOUBLE_EQ(Json::parse(*report)["weight"].get<double>(), kMinSessionWeight);
   EXPECT_DOUBLE_EQ(Json::parse(*report)["position_sigma_m"].get<double>(), 1.5);
+  EXPECT_EQ(service_->GetSession(s1)["localization"], Json::parse(*report));
 
   // Two well-localized vehicles: every false cluster they both contradict is rejected, its
   // support being only the shifted sessions' 2 x 0.25. (Clusters they support themselves can be
