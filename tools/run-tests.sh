@@ -32,7 +32,8 @@ case $mode in
   --tsan)
     build_dir=${MAPDELTA_BUILD_DIR:-build-tsan}
     cmake_args=(-DMAPDELTA_SANITIZE_THREAD=ON -DMAPDELTA_BUILD_BENCH=OFF)
-    export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1}
+    # Exported before the build too: test discovery runs each binary at build time.
+    export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/tools/sanitizers/tsan.supp}
     # Every loop of ours runs on common/parallel.hpp's std::threads, which TSan sees. GCC's
     # libgomp is not built with TSan (its barriers look like races): a library's OpenMP, if
     # any, runs on one thread here.
