@@ -9,6 +9,12 @@
 
 namespace mapdelta::server {
 
+// change_clusters' columns in the order both SQL backends select and read them (migration 007).
+inline constexpr const char* kClusterColumns =
+    "id, ix, iy, kind, state, point_count, min_x, min_y, min_z, max_x, max_y, max_z, "
+    "centroid_x, centroid_y, centroid_z, voxels, evidence_json, prior_version, applied_version, "
+    "created_ms, updated_ms, seq";
+
 class ClusterRows {
  public:
   virtual ~ClusterRows() = default;

@@ -7,11 +7,6 @@
 namespace mapdelta::server {
 namespace {
 
-constexpr const char* kClusterColumns =
-    "id, ix, iy, kind, state, point_count, min_x, min_y, min_z, max_x, max_y, max_z, "
-    "centroid_x, centroid_y, centroid_z, voxels, evidence_json, prior_version, applied_version, "
-    "created_ms, updated_ms, seq";
-
 ChangeClusterRecord ReadCluster(const sql::Stmt& s) {
   ChangeClusterRecord c;
   c.id = s.Int(0);
