@@ -6,6 +6,7 @@
 #include "api_json.hpp"
 #include "blob_codec.hpp"
 #include "change_clusters.hpp"
+#include "cluster_voxels.hpp"
 #include "commit_passes.hpp"
 #include "jobs.hpp"
 #include "mapdelta/common/log.hpp"
@@ -107,38 +108,26 @@ struct PointEq {
 struct MergeRule {
   double min_confidence = 0.5;
   int64_t min_support = 1;
-  bool confirmed_only = false;  // only points in the voxels of the tile's confirmed clusters
+  bool confirmed_only = false;  // only points of the tile's confirmed clusters (same kind)
   double cluster_voxel_m = 1.0;
 };
-
-// Voxel keys of the tile's confirmed change clusters (change_lifecycle.hpp).
-std::set<VoxelKey> ConfirmedVoxels(Storage& storage, const TileId& tile) {
-  constexpr int64_t kMaxClustersPerTile = 100000;  // a tile holds far fewer
-  const Rect one{double(tile.ix()), double(tile.iy()), double(tile.ix()), double(tile.iy())};
-  int64_t total = 0;
-  std::set<VoxelKey> out;
-  for (const ChangeClusterRecord& c :
-       storage.clusters().List(one, ClusterState::kConfirmed, kMaxClustersPerTile, 0, &total)) {
-    for (const VoxelKey& k : DecodeVoxelKeys(c.voxels)) out.insert(k);
-  }
-  return out;
-}
 
 // Step 1 of a refresh for one tile: its prior at `latest` without the removed points that pass
 // the rule, with the new ones that do; nullopt if none passes.
 std::optional<RefreshTileWrite> MergeIntoPrior(Storage& storage, const TileId& tile, int64_t latest,
                                                const std::vector<ChangePoint>& changes,
                                                const MergeRule& rule) {
-  std::set<VoxelKey> confirmed;
-  if (rule.confirmed_only) confirmed = ConfirmedVoxels(storage, tile);
+  ClusterVoxelIndex confirmed;
+  if (rule.confirmed_only)
+    confirmed =
+        ClusterVoxelIndex::Load(storage, tile, {ClusterState::kConfirmed}, rule.cluster_voxel_m);
   std::unordered_set<Point, PointHash, PointEq> removed;
   PointCloud added;
   for (const ChangePoint& c : changes) {
     if (c.confidence < rule.min_confidence ||
         static_cast<int64_t>(c.supported_by.size()) < rule.min_support)
       continue;
-    if (rule.confirmed_only && !confirmed.count(VoxelOf(c.position, rule.cluster_voxel_m)))
-      continue;
+    if (rule.confirmed_only && !confirmed.Find(c.kind, c.position)) continue;
     if (c.kind == ChangeKind::kRemoved)
       removed.insert(c.position);
     else

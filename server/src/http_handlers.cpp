@@ -326,14 +326,15 @@ void RegisterMapRoutes(httplib::Server& s, MapService& svc) {
                            QueryInt(req, "page_size", 100), QueryInt(req, "min_support", 0)));
            }));
   s.Get(R"(/v1/changes/tiles/([-0-9_]{3,24}))",
-        Wrap(svc, "/v1/changes/tiles/{tile}", {"format", "kind", "min_confidence", "min_support"},
+        Wrap(svc, "/v1/changes/tiles/{tile}",
+             {"format", "kind", "min_confidence", "min_support", "state"},
              [&svc](const Req& req, Res& res, std::string& role) {
                Auth(svc, req, role, {R});
                WriteFile(req, res,
                          svc.GetTileChanges(req.matches[1], Query(req, "format").value_or("json"),
                                             Query(req, "kind").value_or(""),
                                             QueryDouble(req, "min_confidence", 0.0),
-                                            QueryInt(req, "min_support", 0)));
+                                            QueryInt(req, "min_support", 0), Query(req, "state")));
              }));
   s.Get(R"(/v1/observed/tiles/([-0-9_]{3,24})\.bt)",
         Wrap(svc, "/v1/observed/tiles/{tile}.bt", {},

@@ -93,14 +93,7 @@ Json MapService::ListClusters(const std::optional<std::string>& bbox,
                               int64_t page_size) {
   CheckPage(page, page_size);
   std::optional<ClusterState> state;
-  if (state_text) {
-    state = ParseEnum<ClusterState>(*state_text);
-    if (!state) {
-      throw ApiError(ApiCode::kInvalidArgument,
-                     "query parameter 'state': '" + *state_text +
-                         "' is not one of candidate, confirmed, applied, expired, rejected");
-    }
-  }
+  if (const auto states = ParseClusterStates(state_text, /*single=*/true)) state = *states->begin();
   const MapFrame frame = Frame();
   std::optional<Rect> range;
   if (bbox) {

@@ -9,6 +9,7 @@
 #include "api_json.hpp"
 #include "autoware_map.hpp"
 #include "blob_codec.hpp"
+#include "cluster_voxels.hpp"
 #include "jobs.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
@@ -248,8 +249,10 @@ Json MapService::ListChangedTiles(const std::string& bbox, double min_confidence
 
 FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::string& format,
                                        const std::string& kind, double min_confidence,
-                                       int64_t min_support) {
+                                       int64_t min_support,
+                                       const std::optional<std::string>& cluster_states) {
   const TileId tile = ParseTile(tile_text);
+  const std::optional<std::set<ClusterState>> states = ParseClusterStates(cluster_states);
   if (kind != "" && kind != "new" && kind != "removed")
     throw ApiError(ApiCode::kInvalidArgument, "kind must be new or removed");
   if ((format == "pcd" || format == "ply") && kind.empty()) {
@@ -265,10 +268,14 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
   if (!record) throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no classification");
   const std::vector<ChangePoint> changes = DecodeChanges(record->changes);
   const MapFrame frame = Frame();
+  ClusterVoxelIndex clusters;
+  if (states)
+    clusters = ClusterVoxelIndex::Load(*storage_, tile, *states, config_.lifecycle.cluster_voxel_m);
   auto keep = [&](const ChangePoint& c) {
     return c.confidence >= min_confidence &&
            static_cast<int64_t>(c.supported_by.size()) >= min_support &&
-           (kind.empty() || (kind == "new") == (c.kind == ChangeKind::kNew));
+           (kind.empty() || (kind == "new") == (c.kind == ChangeKind::kNew)) &&
+           (!states || clusters.Find(c.kind, c.position));
   };
   if (format != "json") {
     std::vector<ChangeCloudPoint> cloud;
@@ -291,6 +298,7 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
            {"confidence", c.confidence},
            {"observed_by", c.observed_by},
            {"supported_by", c.supported_by}};
+    if (states) j["cluster_id"] = clusters.Find(c.kind, c.position)->id;
     (c.kind == ChangeKind::kNew ? fresh : gone).push_back(std::move(j));
   }
   Json j{{"tile", tile_text},

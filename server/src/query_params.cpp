@@ -52,4 +52,26 @@ void CheckPage(int64_t page, int64_t page_size) {
     throw ApiError(ApiCode::kInvalidArgument, "page must be <= " + std::to_string(kMaxPage));
 }
 
+std::optional<std::set<ClusterState>> ParseClusterStates(const std::optional<std::string>& text,
+                                                         bool single) {
+  if (!text) return std::nullopt;
+  std::set<ClusterState> states;
+  std::stringstream ss(*text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    const std::optional<ClusterState> state = ParseEnum<ClusterState>(item);
+    if (!state) {
+      throw ApiError(ApiCode::kInvalidArgument,
+                     "query parameter 'state': '" + item +
+                         "' is not one of candidate, confirmed, applied, expired, rejected");
+    }
+    states.insert(*state);
+  }
+  if (states.empty() || text->back() == ',')
+    throw ApiError(ApiCode::kInvalidArgument, "query parameter 'state': expected a state name");
+  if (single && text->find(',') != std::string::npos)
+    throw ApiError(ApiCode::kInvalidArgument, "query parameter 'state': expected one state");
+  return states;
+}
+
 }  // namespace mapdelta::server

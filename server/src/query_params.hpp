@@ -3,11 +3,14 @@
 // a bbox in user coordinates, its tile range, and page checks. Errors are
 // ApiError(kInvalidArgument) naming the parameter.
 #include <cstdint>
+#include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "mapdelta/common/tiling.hpp"
 #include "mapdelta/server/map_frame.hpp"
+#include "mapdelta/server/states.hpp"
 #include "mapdelta/server/storage_types.hpp"
 
 namespace mapdelta::server {
@@ -20,5 +23,9 @@ Rect TileRange(const TileGrid& grid, const MapFrame& frame, double min_x, double
                double max_x, double max_y);
 // page >= 1 (and small enough for its offset not to overflow), page_size in [1, 1000].
 void CheckPage(int64_t page, int64_t page_size);
+// Query parameter 'state' of cluster routes: one state (single = true) or a comma-separated
+// list of them; nullopt when the parameter is absent.
+std::optional<std::set<ClusterState>> ParseClusterStates(const std::optional<std::string>& text,
+                                                         bool single = false);
 
 }  // namespace mapdelta::server

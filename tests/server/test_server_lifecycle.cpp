@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 
 #include "change_evidence.hpp"
 #include "changed_scene.hpp"
@@ -300,6 +301,48 @@ TEST_P(Lifecycle, ARefreshOfConfirmedClustersOnlyWaitsForTheirConfirmation) {
         Json{{"type", "reclassify"}, {"confirmed_only", true}},
         Json{{"type", "rollback"}, {"version", 1}, {"confirmed_only", true}}}) {
     EXPECT_THROW(service_->CreateJob(bad), ApiError) << bad.dump();
+  }
+}
+
+// The tile change query's state filter gives the points of the clusters in those states, each
+// with its cluster id, and as many as the cluster counts.
+TEST_P(Lifecycle, TileChangesFilteredByClusterStateAreThePointsOfThoseClusters) {
+  auto points_by_cluster = [&](const std::string& states) {
+    std::map<int64_t, int64_t> count;
+    const Json tiles = service_->ListChangedTiles("-1000,-1000,1000,1000", 0.0, 1, 1000)["tiles"];
+    for (const Json& t : tiles) {
+      const FilePayload p = service_->GetTileChanges(t["tile"], "json", "", 0.0, 0, states);
+      const Json j = Json::parse(std::string(p.bytes.begin(), p.bytes.end()));
+      for (const char* kind : {"new", "removed"}) {
+        for (const Json& point : j[kind]) {
+          const Json cluster = service_->GetCluster(point["cluster_id"]);
+          EXPECT_EQ(cluster["kind"], kind);
+          EXPECT_NE(states.find(cluster["state"].get<std::string>()), std::string::npos);
+          ++count[point["cluster_id"].get<int64_t>()];
+        }
+      }
+    }
+    return count;
+  };
+  Drive("car-1", ChangedScene(), 25.0);
+  EXPECT_TRUE(points_by_cluster("confirmed").empty());
+  const std::map<int64_t, int64_t> candidates = points_by_cluster("candidate");
+  EXPECT_GE(candidates.size(), 2u);
+  for (const auto& [id, n] : candidates) EXPECT_EQ(service_->GetCluster(id)["point_count"], n);
+
+  Drive("car-2", ChangedScene(), 24.0);
+  const std::map<int64_t, int64_t> confirmed = points_by_cluster("confirmed");
+  EXPECT_TRUE(confirmed.count(ClusterAt(kBoxC, "new")));
+  EXPECT_TRUE(confirmed.count(ClusterAt(kBoxA, "removed")));
+  for (const auto& [id, n] : confirmed) EXPECT_EQ(service_->GetCluster(id)["point_count"], n);
+  EXPECT_EQ(points_by_cluster("candidate,confirmed").size(),
+            points_by_cluster("candidate").size() + confirmed.size());
+
+  const std::string tile =
+      service_->ListChangedTiles("-1000,-1000,1000,1000", 0.0, 1, 1)["tiles"][0]["tile"];
+  for (const char* bad : {"", "confirmed,", "bogus", "confirmed,,applied"}) {
+    EXPECT_THROW(service_->GetTileChanges(tile, "json", "", 0.0, 0, std::string(bad)), ApiError)
+        << bad;
   }
 }
 

@@ -79,9 +79,12 @@ class MapService {
   // the counts of the points that pass; 0 uses the stored per-tile summary (no decoding).
   Json ListChangedTiles(const std::string& bbox, double min_confidence, int64_t page,
                         int64_t page_size, int64_t min_support = 0);
-  // format json -> JSON text; pcd/ply -> cloud of one kind (kind required).
+  // format json -> JSON text; pcd/ply -> cloud of one kind (kind required). cluster_states
+  // (comma-separated, e.g. "confirmed,applied"): only the points of the tile's change clusters
+  // in those states, and in JSON each point's cluster_id.
   FilePayload GetTileChanges(const std::string& tile, const std::string& format,
-                             const std::string& kind, double min_confidence, int64_t min_support);
+                             const std::string& kind, double min_confidence, int64_t min_support,
+                             const std::optional<std::string>& cluster_states = std::nullopt);
   FilePayload GetObservedTile(const std::string& tile);
 
   // --- change clusters and their feed (issue #20; change_cluster_store.hpp, change_lifecycle.hpp)
