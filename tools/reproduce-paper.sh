@@ -26,7 +26,8 @@ usage: bash tools/reproduce-paper.sh --out DIR [options]
                       confident (default: mapdelta-detect's default; see its --help)
   --crowd LIST        numbers of uploads for the crowdsourcing curve (default 1,2,4,8; 'none' skips)
   --crowd-preset P    preset of the crowdsourcing scene (default tiny: 4 min; paper: about 40 min)
-  --crowd-sequence S  sequence every upload drives (default S1_01), with noise seeds 1..max
+  --crowd-sequence S  sequence(s) the uploads drive, comma-separated, one scene (default S1_01;
+                      S1_01,S1_02: upload i drives the i-th in turn), noise seed i, vehicle i
   --crowd-noise N     noise of the crowd uploads (default small)
   --data DIR          dataset cache (clean renders, renoised trials; default OUT/data)
   --dataset N:K=DIR   use DIR (a generated dataset) as noise N, trial K (repeatable), e.g.
@@ -98,6 +99,9 @@ if [ -z "$sequences" ]; then
   if [ "$preset" = paper ]; then sequences=S1_01,S1_02,S2_01,S2_02,S1_mirror,S1_dark; else sequences=S1_01,S2_01; fi
 fi
 if [ "$crowd" != none ]; then
+  for v in ${crowd_seq//,/ }; do
+    [ "${v%%_*}" = "${crowd_seq%%_*}" ] || { echo "reproduce-paper: --crowd-sequence '$crowd_seq': all of one scene" >&2; exit 2; }
+  done
   for v in ${crowd//,/ }; do [[ "$v" =~ ^[1-9][0-9]*$ ]] || { echo "reproduce-paper: --crowd '$v' is not a positive integer" >&2; exit 2; }; done
 fi
 case "$build_dir" in /*) ;; *) build_dir=$root/$build_dir ;; esac

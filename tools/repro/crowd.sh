@@ -1,9 +1,11 @@
 # Crowdsourcing experiment of tools/reproduce-paper.sh (sourced; uses lib.sh and the driver's
-# variables). One server; the same changed scene driven max(N) times with noise seeds 1..max;
-# after N uploads the server's aggregated changes (all points, and those with confidence > 0.5,
-# i.e. supported by a majority of the sessions that observed them) are evaluated with the
-# paper's metrics. P_g and A_obs for the evaluation come from mapdelta-detect on the N sessions'
-# keyframes merged, whose own offline detection is reported beside the server's.
+# variables). One server; the same changed scene driven max(N) times with noise seeds 1..max,
+# upload i by its own vehicle (vehicle_id crowd-car-i) on the i-th of the --crowd-sequence list
+# (round robin); after N uploads the server's aggregated changes are evaluated with the paper's
+# metrics: all points, those with confidence > 0.5 (supported by a majority of the sessions that
+# observed them), and those of confirmed change clusters (issue #20's lifecycle, the server's
+# lifecycle.* defaults). P_g and A_obs for the evaluation come from mapdelta-detect on the N
+# sessions' keyframes merged, whose own offline detection is reported beside the server's.
 
 crowd_server_pid=""
 crowd_stop_server() {
@@ -76,35 +78,55 @@ crowd_snapshot() {
   tiles=$(crowd_api GET "/v1/changes/tiles?bbox=-100000,-100000,100000,100000&page_size=500" "$crowd_reader")
   echo "$tiles" >"$dir/tiles.json"
   : >"$dir/points.jsonl"
+  : >"$dir/confirmed.jsonl"
+  local points='(.new[] | {kind: "new", p, confidence, observed: (.observed_by | length), supported: (.supported_by | length)}),
+                (.removed[] | {kind: "removed", p, confidence, observed: (.observed_by | length), supported: (.supported_by | length)})'
   for t in $(jq -r '.tiles[].tile' <<<"$tiles"); do
-    crowd_api GET "/v1/changes/tiles/$t?format=json" "$crowd_reader" |
-      jq -c '(.new[] | {kind: "new", p, confidence, observed: (.observed_by | length), supported: (.supported_by | length)}),
-             (.removed[] | {kind: "removed", p, confidence, observed: (.observed_by | length), supported: (.supported_by | length)})' \
-        >>"$dir/points.jsonl"
+    crowd_api GET "/v1/changes/tiles/$t?format=json" "$crowd_reader" | jq -c "$points" >>"$dir/points.jsonl"
+    crowd_api GET "/v1/changes/tiles/$t?format=json&state=confirmed,applied" "$crowd_reader" |
+      jq -c "$points" >>"$dir/confirmed.jsonl"
   done
+  local page=1 got total
+  : >"$dir/clusters.jsonl"
+  while :; do  # every cluster, in pages of 1000
+    got=$(crowd_api GET "/v1/changes/clusters?page_size=1000&page=$page" "$crowd_reader")
+    jq -c '.clusters[]' <<<"$got" >>"$dir/clusters.jsonl"
+    total=$(jq '.total' <<<"$got")
+    [ "$(wc -l <"$dir/clusters.jsonl")" -ge "$total" ] || [ "$(jq '.clusters | length' <<<"$got")" = 0 ] && break
+    page=$((page + 1))
+  done
+  jq -s '{clusters: .}' "$dir/clusters.jsonl" >"$dir/clusters.json"
+  rm -f "$dir/clusters.jsonl"
   for kind in new removed; do
     jq -r --arg k "$kind" 'select(.kind == $k) | .p | map(tostring) | join(" ")' "$dir/points.jsonl" | ascii_pcd "$dir/server_all_$kind.pcd"
     jq -r --arg k "$kind" 'select(.kind == $k and .confidence > 0.5) | .p | map(tostring) | join(" ")' "$dir/points.jsonl" |
       ascii_pcd "$dir/server_majority_$kind.pcd"
+    jq -r --arg k "$kind" 'select(.kind == $k) | .p | map(tostring) | join(" ")' "$dir/confirmed.jsonl" |
+      ascii_pcd "$dir/server_confirmed_$kind.pcd"
   done
   local kfs=() i
   for i in $(seq 1 "$n"); do kfs+=("$out/crowd/u$i/keyframes"); done
   merge_keyframes "$dir/keyframes" "${kfs[@]}"
   detect_and_eval_keep "$ds" "$crowd_seq" "$dir/keyframes" "$dir/merged" "$thf_point" "$operating_bound"
   local scene=${crowd_seq%%_*} which
-  for which in all majority; do
+  for which in all majority confirmed; do
     "$bin_eval" changes --original "$ds/scenes/original/cloud.pcd" --changed "$ds/scenes/$scene/cloud.pcd" \
       --new "$dir/server_${which}_new.pcd" --removed "$dir/server_${which}_removed.pcd" \
       --global "$dir/merged/global.pcd" --observed "$dir/merged/observed.bt" \
       --json "$dir/changes_server_$which.json" >/dev/null 2>>"$log" || die "mapdelta-eval failed in $dir (see $log)"
   done
   jq -n --argjson n "$n" --slurpfile a "$dir/changes_server_all.json" --slurpfile m "$dir/changes_server_majority.json" \
-    --slurpfile o "$dir/merged/changes.json" --argjson tiles "$(jq '[.tiles[] | {tile, new_count, removed_count, max_confidence}]' "$dir/tiles.json")" \
-    '{uploads: $n, server_all: $a[0].paper, server_majority: $m[0].paper, offline_merged: $o[0].paper, changed_tiles: $tiles}' \
+    --slurpfile c "$dir/changes_server_confirmed.json" --slurpfile o "$dir/merged/changes.json" \
+    --argjson tiles "$(jq '[.tiles[] | {tile, new_count, removed_count, max_confidence}]' "$dir/tiles.json")" \
+    --argjson clusters "$(jq '[.clusters[] | {kind, state, point_count}] | group_by([.kind, .state]) |
+                             map({kind: .[0].kind, state: .[0].state, clusters: length, points: (map(.point_count) | add)})' "$dir/clusters.json")" \
+    '{uploads: $n, server_all: $a[0].paper, server_majority: $m[0].paper, server_confirmed: $c[0].paper,
+      offline_merged: $o[0].paper, changed_tiles: $tiles, clusters: $clusters}' \
     >"$dir/snapshot.json"
   rm -rf "$dir/keyframes"
   [ "$keep_data" = 1 ] || rm -f "$dir/merged/global.pcd" "$dir/merged/observed.bt"
   say "  server (all): $(jq -c '.server_all | {R_new, P_new, R_rm, P_rm} | map_values(. * 1000 | round / 1000)' "$dir/snapshot.json")"
+  say "  server (confirmed): $(jq -c '.server_confirmed | {R_new, P_new, R_rm, P_rm} | map_values(if . == null then null else . * 1000 | round / 1000 end)' "$dir/snapshot.json")"
 }
 
 # As detect_and_eval, but keeps global.pcd and observed.bt (the server evaluation needs them).
@@ -147,19 +169,23 @@ EOF3
     sleep 0.1
   done
   crowd_url="http://$(sed -n 's/^listening on //p' "$cdir/server/stdout.log")"
-  local ds1; ds1=$(ensure_dataset "$crowd_preset" "$crowd_noise" 1 "$crowd_seq")
+  local seqs; IFS=, read -r -a seqs <<<"$crowd_seq"
+  local ds1; ds1=$(ensure_dataset "$crowd_preset" "$crowd_noise" 1 "${seqs[0]}")
   crowd_api POST "/v1/admin/prior?format=pcd" "$crowd_admin" -H 'Content-Type: application/octet-stream' \
     --data-binary "@$ds1/scenes/original/cloud.pcd" >/dev/null
-  local i ds
+  local i ds seq
   for i in $(seq 1 "$max"); do
-    ds=$(ensure_dataset "$crowd_preset" "$crowd_noise" "$i" "$crowd_seq")
-    say "crowd: upload $i/$max ($crowd_seq, noise seed $i): client with the server's prior tiles, upload, commit"
+    seq=${seqs[$(((i - 1) % ${#seqs[@]}))]}
+    ds=$(ensure_dataset "$crowd_preset" "$crowd_noise" "$i" "$seq")
+    say "crowd: upload $i/$max ($seq, noise seed $i, vehicle crowd-car-$i): client with the server's prior tiles, upload, commit"
     rm -rf "$cdir/u$i"
-    $nice_cmd "$bin_client" run --sequence "$ds/sequences/$crowd_seq" --odometry vio --server "$crowd_url" \
-      --token "$vehicle" --out "$cdir/u$i" >"$cdir/u$i.log" 2>&1 || die "client failed (see $cdir/u$i.log)"
+    printf 'upload:\n  vehicle_id: crowd-car-%d\n' "$i" >"$cdir/u$i.yaml"
+    $nice_cmd "$bin_client" run --sequence "$ds/sequences/$seq" --odometry vio --server "$crowd_url" \
+      --token "$vehicle" --config "$cdir/u$i.yaml" --out "$cdir/u$i" >"$cdir/u$i.log" 2>&1 ||
+      die "client failed (see $cdir/u$i.log)"
     crowd_wait_jobs
     [[ ",$crowd," == *",$i,"* ]] && crowd_snapshot "$i" "$ds"
-    prune_dataset "$ds" "$crowd_seq"
+    prune_dataset "$ds" "$seq"
   done
   crowd_api GET "/v1/admin/jobs?page_size=500" "$crowd_admin" >"$cdir/jobs.json"
   crowd_stop_server

@@ -8,7 +8,7 @@ res=$1 out=$2
 plots=$out/plots
 mkdir -p "$plots"
 md=$out/report.md
-f3() { awk -v x="$1" 'BEGIN { if (x == "" || x == "null") print "–"; else printf "%.3f", x }'; }
+f3() { awk -v x="$1" 'BEGIN { if (x == "" || x == "null" || x == "nan") print "–"; else printf "%.3f", x }'; }
 
 # jq on the results.
 J() { jq -r "$@" "$res"; }
@@ -209,6 +209,36 @@ plot "$plots/crowd.dat" u 1:2 w lp lw 2 pt 7 lc 1 t "R_{new}", "" u 1:3 w lp lw 
      "" u 1:6 w lp lw 1 dt 2 pt 7 lc 1 notitle, "" u 1:7 w lp lw 1 dt 2 pt 5 lc 2 notitle, \
      "" u 1:8 w lp lw 1 dt 2 pt 9 lc 3 notitle, "" u 1:9 w lp lw 1 dt 2 pt 11 lc 4 notitle
 EOG
+    if J '[.crowd.snapshots[] | .server_confirmed] | all(. != null)' | grep -q true; then
+      echo
+      echo "### Change lifecycle: every reported point vs the points of confirmed clusters"
+      echo
+      echo "Upload i comes from its own vehicle. A change cluster (connected changed voxels of one kind in a tile) is confirmed when lifecycle.confirm_sessions supporting sessions from lifecycle.confirm_vehicles vehicles back it (server defaults: 2 and 2; evidence weighted by localization quality). **all** = every point the server reports (candidate or confirmed clusters); **confirmed** = \`GET /v1/changes/tiles/{t}?state=confirmed,applied\`. A metric is – where there is no point to measure."
+      echo
+      echo "| uploads | clusters candidate / confirmed (new) | clusters candidate / confirmed (removed) | all R_new | all P_new | all R_rm | all P_rm | confirmed R_new | confirmed P_new | confirmed R_rm | confirmed P_rm |"
+      echo "|---|---|---|---|---|---|---|---|---|---|---|"
+      J '.crowd.snapshots[] | (.clusters // []) as $c |
+          def n(k; s): ([$c[] | select(.kind == k and .state == s) | .clusters] | add // 0);
+          [.uploads, "\(n("new"; "candidate")) / \(n("new"; "confirmed"))", "\(n("removed"; "candidate")) / \(n("removed"; "confirmed"))",
+           .server_all.R_new, .server_all.P_new, .server_all.R_rm, .server_all.P_rm,
+           .server_confirmed.R_new, .server_confirmed.P_new, .server_confirmed.R_rm, .server_confirmed.P_rm] | map(. // "nan") | @tsv' |
+        tee "$plots/crowd_lifecycle.dat" |
+        while IFS=$'\t' read -r n cn cr a b c d e f g h; do
+          echo "| $n | $cn | $cr | $(f3 "$a") | $(f3 "$b") | $(f3 "$c") | $(f3 "$d") | $(f3 "$e") | $(f3 "$f") | $(f3 "$g") | $(f3 "$h") |"
+        done
+      echo
+      echo "![lifecycle curve](plots/crowd_lifecycle.png)"
+      gnuplot <<EOG
+set terminal pngcairo size 720,440 font "sans,10"
+set output "$plots/crowd_lifecycle.png"
+set title "Precision of every reported point (dashed) and of confirmed clusters (solid) vs uploads"
+set logscale x 2; set xlabel "uploads"; set ylabel "precision / recall"; set yrange [0:1.05]; set grid; set key bottom right
+set datafile missing "nan"
+plot "$plots/crowd_lifecycle.dat" u 1:9 w lp lw 2 pt 5 lc 2 t "confirmed P_{new}", "" u 1:11 w lp lw 2 pt 11 lc 4 t "confirmed P_{rm}", \
+     "" u 1:8 w lp lw 1 pt 7 lc 1 t "confirmed R_{new}", "" u 1:10 w lp lw 1 pt 9 lc 3 t "confirmed R_{rm}", \
+     "" u 1:5 w lp lw 1 dt 2 pt 5 lc 2 t "all P_{new}", "" u 1:7 w lp lw 1 dt 2 pt 11 lc 4 t "all P_{rm}"
+EOG
+    fi
   fi
   echo
   echo "Machine-readable: \`results.json\` (every run, every sweep point, the crowd snapshots, timings)."
