@@ -4,9 +4,14 @@
 #include "api_json.hpp"
 #include "jobs.hpp"
 #include "mapdelta/common/log.hpp"
+#include "rollback_clusters.hpp"
 
 namespace mapdelta::server {
 namespace {
+
+Json CountsJson(const RollbackClusterCounts& c) {
+  return Json{{"unapplied", c.unapplied}, {"reapplied", c.reapplied}};
+}
 
 // The version this job already wrote (a crash between the version and the job's finish).
 std::optional<PriorVersionRecord> WrittenBy(PriorStore& priors, int64_t job_id) {
@@ -46,7 +51,13 @@ Json RunRollbackJob(JobContext& ctx) {
   const int64_t target = params.at("version").get<int64_t>();
   PriorStore& priors = ctx.storage.priors();
   if (const auto written = WrittenBy(priors, ctx.job.id)) {
-    return Json{{"prior_version", written->version}, {"copy_of", target}, {"resumed", true}};
+    // A crash after the version: its cluster changes may be missing (they are idempotent).
+    const RollbackClusterCounts counts =
+        ReconcileClustersWithRollback(ctx.storage, ctx.job.id, target, written->version, NowMs());
+    return Json{{"prior_version", written->version},
+                {"copy_of", target},
+                {"resumed", true},
+                {"clusters", CountsJson(counts)}};
   }
   const std::optional<int64_t> latest = priors.LatestVersion();
   if (!latest || target < 1 || target > *latest) {
@@ -74,10 +85,14 @@ Json RunRollbackJob(JobContext& ctx) {
   ctx.CheckStop();  // the last point where a cancel stops the rollback
   const int64_t version = priors.CreateVersion(meta, tiles, /*replace_all=*/true);
   MD_LOG(kInfo, "prior version " << version << " = copy of version " << target);
+  // 3. The clusters follow the map: applied exactly when their refresh is in the target.
+  const RollbackClusterCounts counts =
+      ReconcileClustersWithRollback(ctx.storage, ctx.job.id, target, version, NowMs());
   return Json{{"prior_version", version},
               {"copy_of", target},
               {"parent_version", *latest},
-              {"tiles", tiles.size()}};
+              {"tiles", tiles.size()},
+              {"clusters", CountsJson(counts)}};
 }
 
 }  // namespace mapdelta::server

@@ -304,6 +304,59 @@ TEST_P(Lifecycle, ARefreshOfConfirmedClustersOnlyWaitsForTheirConfirmation) {
   }
 }
 
+// A rollback takes the map back to an older version's content, so the clusters a later refresh
+// applied are no longer applied (back to confirmed, the state they had); rolling forward to the
+// refresh's version again re-applies them. Each is one transition by the rollback job.
+TEST_P(Lifecycle, ARollbackUnappliesTheClustersItsTargetDoesNotHoldAndRollingForwardReappliesThem) {
+  Drive("car-1", ChangedScene(), 25.0);
+  Drive("car-2", ChangedScene(), 24.0);
+  const int64_t c = ClusterAt(kBoxC, "new"), a = ClusterAt(kBoxA, "removed");
+  ASSERT_EQ(StateOf(c), "confirmed");
+  ASSERT_EQ(StateOf(a), "confirmed");
+  auto run = [&](const Json& body) {
+    const int64_t job = service_->CreateJob(body)["job_id"];
+    service_->RunQueuedJobsNow();
+    const Json done = service_->GetJob(job);
+    EXPECT_EQ(done["state"], "succeeded") << done.dump(1);
+    return done;
+  };
+  run({{"type", "refresh"}, {"bbox", {-30, -10, 70, 40}}, {"confirmed_only", true}});
+  ASSERT_EQ(StateOf(c), "applied");
+  const size_t applied_transitions = service_->GetCluster(c)["transitions"].size();
+
+  const Json back = run({{"type", "rollback"}, {"version", 1}});
+  EXPECT_EQ(back["result"]["prior_version"], 3);
+  EXPECT_GE(back["result"]["clusters"]["unapplied"].get<int64_t>(), 2) << back.dump(1);
+  EXPECT_EQ(back["result"]["clusters"]["reapplied"], 0);
+  for (int64_t id : {c, a}) {
+    const Json cluster = service_->GetCluster(id);
+    EXPECT_EQ(cluster["state"], "confirmed") << cluster.dump(1);
+    EXPECT_EQ(cluster["applied_version"], 2);  // kept: the refresh that merged it
+    ASSERT_EQ(cluster["transitions"].size(), applied_transitions + 1);
+    const Json& last = cluster["transitions"].back();
+    EXPECT_EQ(last["from"], "applied");
+    EXPECT_EQ(last["job_id"], back["job_id"]);
+    EXPECT_NE(last["cause"].get<std::string>().find("does not hold refresh version 2"),
+              std::string::npos)
+        << last["cause"];
+  }
+  // Nothing applied is left for a rollback to 1 to undo: a second one changes no cluster.
+  const Json again = run({{"type", "rollback"}, {"version", 1}});
+  EXPECT_EQ(again["result"]["clusters"]["unapplied"], 0);
+  EXPECT_EQ(service_->GetCluster(c)["transitions"].size(), applied_transitions + 1);
+
+  // Version 2 holds the refresh's merge: rolling forward to it applies them again.
+  const Json forward = run({{"type", "rollback"}, {"version", 2}});
+  EXPECT_GE(forward["result"]["clusters"]["reapplied"].get<int64_t>(), 2) << forward.dump(1);
+  for (int64_t id : {c, a}) {
+    const Json cluster = service_->GetCluster(id);
+    EXPECT_EQ(cluster["state"], "applied") << cluster.dump(1);
+    EXPECT_NE(cluster["transitions"].back()["cause"].get<std::string>().find(
+                  "holds refresh version 2's merge of this change again"),
+              std::string::npos);
+  }
+}
+
 // The tile change query's state filter gives the points of the clusters in those states, each
 // with its cluster id, and as many as the cluster counts.
 TEST_P(Lifecycle, TileChangesFilteredByClusterStateAreThePointsOfThoseClusters) {

@@ -36,7 +36,8 @@ struct ChangeClusterRecord {
   Bytes voxels;               // opaque here: the cluster's voxel keys (for matching across commits)
   std::string evidence_json;  // opaque here: supporting / contradicting sessions, vehicles, days
   int64_t prior_version = 0;  // the prior version it was last classified against
-  std::optional<int64_t> applied_version;  // the refresh's version, once applied
+  std::optional<int64_t> applied_version;  // the version of the refresh that applied it (kept
+                                           // when a rollback un-applies it)
   int64_t created_ms = 0, updated_ms = 0;
   int64_t seq = 0;  // feed position of its latest state change (assigned by the store)
 };
