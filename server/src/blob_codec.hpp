@@ -43,7 +43,9 @@ std::vector<ChangePoint> DecodeChanges(const Bytes& blob);
 // A change cluster's voxel keys (sorted; change_lifecycle.cpp).
 Bytes EncodeVoxelKeys(const std::vector<VoxelKey>& keys);
 std::vector<VoxelKey> DecodeVoxelKeys(const Bytes& blob);
-// A session's observed octree: OctoMap's binary stream (ObservedArea::SerializeBinary).
+// A session's observed octree: OctoMap's .ot stream with every voxel's log-odds
+// (ObservedArea::SerializeEvidence; the per-session free-space evidence of tile_classifier.hpp
+// needs it), or the .bt stream (free/occupied only) of databases written before.
 Bytes EncodeObserved(const std::string& octree_binary);
 // Databases written before octrees went through the codec hold the bare OctoMap stream: that is
 // read as it is (recognised by OctoMap's own first line); any other blob without the mapdelta

@@ -214,7 +214,7 @@ Json RunCommitJob(JobContext& ctx) {
   SessionObserved session_observed =
       BuildSessionObserved(ctx, *session, camera, reg.T_correction, 0.2, 0.8);
   ctx.storage.sessions().PutObserved(session_id,
-                                     EncodeObserved(session_observed.area.SerializeBinary()));
+                                     EncodeObserved(session_observed.area.SerializeEvidence()));
   const auto t3 = std::chrono::steady_clock::now();
 
   // 4. Touched tiles: where the session has points, or observed some prior point.
