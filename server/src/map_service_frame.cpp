@@ -8,6 +8,7 @@
 #include "api_json.hpp"
 #include "autoware_map.hpp"
 #include "blob_codec.hpp"
+#include "coverage.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
@@ -160,7 +161,10 @@ Json MapService::ImportPriorFile(const std::string& path, const std::string& not
                                  << tiles.size() << " tiles (" << dropped
                                  << " non-finite dropped), frame " << Describe(frame)
                                  << (chosen ? " (origin chosen from the cloud)" : ""));
+  // Sessions' coverage of the replaced tiles, against the new points.
+  const CoverageRecomputed coverage = RecomputeCoverage(*storage_, version);
   return Json{{"prior_version", version},
+              {"coverage_rows_recomputed", coverage.rows},
               {"points", cloud.size()},
               {"tiles", tiles.size()},
               {"dropped_non_finite", dropped},
