@@ -14,8 +14,14 @@ namespace {
 constexpr char kMagic[4] = {'M', 'D', 'B', '1'};
 constexpr uint16_t kFormatVersion = 1;
 constexpr uint64_t kMaxDeflateRatio = 1032;
-enum Kind : uint8_t { kPoints = 1, kAggregate = 2, kChanges = 3, kObserved = 4, kVoxelKeys = 5,
-            kPointBits = 6 };
+enum Kind : uint8_t {
+  kPoints = 1,
+  kAggregate = 2,
+  kChanges = 3,
+  kObserved = 4,
+  kVoxelKeys = 5,
+  kPointBits = 6
+};
 
 class Writer {
  public:

@@ -24,15 +24,15 @@ int64_t WindowStart(int64_t days) {
 }
 
 Json CoverageToJson(const TileCoverage& c, const TileGrid& grid, const MapFrame& frame) {
-  return Json{{"tile", c.tile.ToString()},
-              {"bounds", UserBounds(grid, frame, c.tile)},
-              {"prior_points", c.prior_points},
-              {"observed_points", c.observed_points},
-              {"fraction", c.fraction()},
-              {"last_observed",
-               c.last_observed_ms ? Json(IsoTime(*c.last_observed_ms)) : Json(nullptr)},
-              {"sessions", c.sessions.size()},
-              {"vehicles", c.vehicles.size()}};
+  return Json{
+      {"tile", c.tile.ToString()},
+      {"bounds", UserBounds(grid, frame, c.tile)},
+      {"prior_points", c.prior_points},
+      {"observed_points", c.observed_points},
+      {"fraction", c.fraction()},
+      {"last_observed", c.last_observed_ms ? Json(IsoTime(*c.last_observed_ms)) : Json(nullptr)},
+      {"sessions", c.sessions.size()},
+      {"vehicles", c.vehicles.size()}};
 }
 
 // The rows of one tile among rows ordered by tile.
@@ -73,8 +73,12 @@ Json MapService::ListCoverageTiles(const std::string& bbox, int64_t days, int64_
           CoverageToJson(SummarizeTile(prior[i], RowsOf(all, t), RowsOf(window, t)), grid, frame));
     }
   }
-  return Json{{"prior_version", version}, {"days", days},     {"since", IsoTime(since_ms)},
-              {"page", page},             {"page_size", page_size}, {"total", total},
+  return Json{{"prior_version", version},
+              {"days", days},
+              {"since", IsoTime(since_ms)},
+              {"page", page},
+              {"page_size", page_size},
+              {"total", total},
               {"tiles", tiles}};
 }
 

@@ -163,14 +163,15 @@ Json MapService::ImportPriorFile(const std::string& path, const std::string& not
                                  << (chosen ? " (origin chosen from the cloud)" : ""));
   // Sessions' coverage of the replaced tiles, against the new points.
   const CoverageRecomputed coverage = RecomputeCoverage(*storage_, version);
-  return Json{{"prior_version", version},
-              {"coverage_rows_recomputed", coverage.rows},
-              {"points", cloud.size()},
-              {"tiles", tiles.size()},
-              {"dropped_non_finite", dropped},
-              {"tile_size_m", config_.storage.tile_size_m},
-              {"frame", FrameJson(frame)},
-              {"origin_chosen", chosen}};
+  Json out{{"prior_version", version},
+           {"points", cloud.size()},
+           {"tiles", tiles.size()},
+           {"dropped_non_finite", dropped},
+           {"tile_size_m", config_.storage.tile_size_m},
+           {"frame", FrameJson(frame)},
+           {"origin_chosen", chosen}};
+  out["coverage_rows_recomputed"] = coverage.rows;
+  return out;
 }
 
 Json MapService::GetMap() {

@@ -9,8 +9,8 @@ namespace mapdelta::server {
 
 PointBits PointBits::FromWords(size_t size, std::vector<uint64_t> words) {
   if (words.size() != (size + 63) / 64) {
-    throw Error(ErrorCode::kParse, "point bits: " + std::to_string(words.size()) +
-                                       " words for " + std::to_string(size) + " bits");
+    throw Error(ErrorCode::kParse, "point bits: " + std::to_string(words.size()) + " words for " +
+                                       std::to_string(size) + " bits");
   }
   if (size % 64 != 0 && (words.back() >> (size % 64)) != 0)
     throw Error(ErrorCode::kParse, "point bits: a bit past the end is set");

@@ -92,12 +92,13 @@ Json RunRollbackJob(JobContext& ctx) {
       ReconcileClustersWithRollback(ctx.storage, ctx.job.id, target, version, NowMs());
   // 4. Sessions' coverage against the copied points (every tile has a new row).
   const CoverageRecomputed coverage = RecomputeCoverage(ctx.storage, version);
-  return Json{{"prior_version", version},
-              {"coverage", CoverageJson(coverage)},
-              {"copy_of", target},
-              {"parent_version", *latest},
-              {"tiles", tiles.size()},
-              {"clusters", CountsJson(counts)}};
+  Json out{{"prior_version", version},
+           {"copy_of", target},
+           {"parent_version", *latest},
+           {"tiles", tiles.size()},
+           {"clusters", CountsJson(counts)}};
+  out["coverage"] = CoverageJson(coverage);
+  return out;
 }
 
 }  // namespace mapdelta::server

@@ -3,9 +3,9 @@
 // 0_0 is two equal patches of ground, one in front of the drive at y = 16 (seen) and one
 // behind it (never in view), so one session observes exactly half of the tile. The oracle for
 // every count is the sessions' stored octrees asked point by point (ObservedArea::IsObserved).
-// Then: a window of days leaves an old session out, a refresh that changes the prior
-// recomputes the coverage against the new points, and bad parameters are refused (also over
-// HTTP, as 400).
+// Then: a window of days leaves an old session out, a refresh that changes the prior and a
+// rollback recompute the coverage against the new points, and bad parameters are refused (also
+// over HTTP, as 400).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -92,7 +92,8 @@ class Coverage : public ::testing::TestWithParam<std::string> {
   // backdates the session (as a session of that time would be stored).
   int64_t Drive(const std::string& vehicle, double y_cam,
                 std::optional<int64_t> created_ms = std::nullopt) {
-    int64_t s = service_->CreateSession({{"vehicle_id", vehicle}, {"camera", kCamera}})["session_id"];
+    int64_t s =
+        service_->CreateSession({{"vehicle_id", vehicle}, {"camera", kCamera}})["session_id"];
     if (created_ms) {
       SessionRecord r = *service_->storage().sessions().Get(s);
       r.created_ms = *created_ms;
@@ -208,7 +209,8 @@ TEST_P(Coverage, ARefreshThatChangesThePriorRecomputesTheCoverage) {
   const int64_t a = Drive("car", 16);
   const int64_t b = Drive("van", 40);
   const int64_t v1 = *service_->storage().priors().LatestVersion();
-  const int64_t job = service_->CreateJob({{"type", "refresh"}})["job_id"];
+  const int64_t job =
+      service_->CreateJob({{"type", "refresh"}, {"bbox", {-100, -100, 200, 200}}})["job_id"];
   service_->RunQueuedJobsNow();
   const Json done = service_->GetJob(job);
   ASSERT_EQ(done["state"], "succeeded") << done.dump(2);
@@ -241,6 +243,17 @@ TEST_P(Coverage, ARefreshThatChangesThePriorRecomputesTheCoverage) {
   }
   // Running the recomputation again (as a resumed job does) finds nothing to do.
   EXPECT_EQ(RecomputeCoverage(service_->storage(), v2).rows, 0);
+
+  // A rollback to the first version copies its points as new rows: recomputed again.
+  const int64_t rollback = service_->CreateJob({{"type", "rollback"}, {"version", v1}})["job_id"];
+  service_->RunQueuedJobsNow();
+  ASSERT_EQ(service_->GetJob(rollback)["state"], "succeeded");
+  const Json back = Listed("0_0", 30);
+  EXPECT_EQ(back["prior_points"], 128);
+  EXPECT_EQ(back["observed_points"], ObservedByAny(PriorPoints("0_0"), {a, b}));
+  EXPECT_EQ(back["observed_points"], 128);
+  const Json after = service_->ListCoverageTiles("-100,-100,200,200", 30, 1, 1000);
+  EXPECT_EQ(after["total"], 1) << "the other tiles are empty again";
 }
 
 TEST_P(Coverage, BadParametersAreRefusedByName) {
@@ -294,10 +307,11 @@ TEST_F(CoverageHttp, RoutesAnswerAndRefuseBadParametersWith400) {
   EXPECT_EQ(one["days"], 7);
 
   for (const std::string path :
-       {"/v1/coverage/tiles", "/v1/coverage/tiles?bbox=0,0,1", "/v1/coverage/tiles?bbox=0,0,1,1&days=x",
-        "/v1/coverage/tiles?bbox=0,0,1,1&days=0", "/v1/coverage/tiles?bbox=0,0,1,1&days=99999",
-        "/v1/coverage/tiles?bbox=0,0,1,1&page=0", "/v1/coverage/tiles?bbox=0,0,1,1&color=red",
-        "/v1/coverage/tiles/0_0?days=1.5", "/v1/coverage/tiles/0_0?bbox=0,0,1,1"}) {
+       {"/v1/coverage/tiles", "/v1/coverage/tiles?bbox=0,0,1",
+        "/v1/coverage/tiles?bbox=0,0,1,1&days=x", "/v1/coverage/tiles?bbox=0,0,1,1&days=0",
+        "/v1/coverage/tiles?bbox=0,0,1,1&days=99999", "/v1/coverage/tiles?bbox=0,0,1,1&page=0",
+        "/v1/coverage/tiles?bbox=0,0,1,1&color=red", "/v1/coverage/tiles/0_0?days=1.5",
+        "/v1/coverage/tiles/0_0?bbox=0,0,1,1"}) {
     auto [s, b] = Call(client_->Get(path, H(reader_)));
     EXPECT_EQ(s, 400) << path << ": " << b.dump();
   }

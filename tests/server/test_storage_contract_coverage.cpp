@@ -47,8 +47,8 @@ TEST_P(StorageContract, CoverageRowsAreListedByTileThenSessionWithTheirFields) {
 }
 
 TEST_P(StorageContract, CoverageListsFilterByTileRectAndObservedTime) {
-  s().coverage().Put({Row(0, 0, 1, 100, 5), Row(1, 0, 1, 100, 5), Row(1, 1, 2, 250, 5),
-                      Row(5, 1, 3, 900, 5)});
+  s().coverage().Put(
+      {Row(0, 0, 1, 100, 5), Row(1, 0, 1, 100, 5), Row(1, 1, 2, 250, 5), Row(5, 1, 3, 900, 5)});
   const auto in_rect = s().coverage().List(Rect{1, 0, 4, 1}, 0, false);
   ASSERT_EQ(in_rect.size(), 2u);
   EXPECT_EQ(in_rect[0].tile, TileId(1, 0));
