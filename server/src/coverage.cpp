@@ -56,33 +56,44 @@ std::vector<CoverageRecord> SessionCoverage(Storage& storage, const SessionRecor
 CoverageRecomputed RecomputeCoverage(Storage& storage, int64_t version) {
   constexpr double kLow = std::numeric_limits<int32_t>::min();
   constexpr double kHigh = std::numeric_limits<int32_t>::max();
-  const std::vector<CoverageRecord> rows =
-      storage.coverage().List(Rect{kLow, kLow, kHigh, kHigh}, 0, /*with_bits=*/false);
+  const Rect everywhere{kLow, kLow, kHigh, kHigh};
+  const std::vector<CoverageRecord> rows = storage.coverage().List(everywhere, 0, false);
   std::map<TileId, std::vector<const CoverageRecord*>> by_tile;
   for (const CoverageRecord& r : rows) by_tile[r.tile].push_back(&r);
+  // Which row every tile reads from, without its points (only stale tiles' points are read).
+  std::map<TileId, PriorTileRecord> listed;
+  for (PriorTileRecord& t : storage.priors().ListTiles(everywhere, version))
+    listed.emplace(t.tile, std::move(t));
 
   CoverageRecomputed out;
   ObservedCache octrees(storage);
   std::set<int64_t> sessions_read;
   // Tile by tile: one decode of the tile's points, one transaction for its rows.
   for (const auto& [tile, tile_rows] : by_tile) {
-    const std::optional<PriorTileRecord> prior = storage.priors().GetTile(tile, version);
+    const auto it = listed.find(tile);
+    // Not listed: no row at this version, or an empty one (ListTiles skips those).
+    std::optional<PriorTileRecord> prior =
+        it != listed.end() ? std::optional(it->second) : storage.priors().GetTile(tile, version);
     const int64_t row_version = prior ? prior->version : 0;
-    std::vector<CoverageRecord> writes;
-    std::optional<PointCloud> points;
+    std::vector<const CoverageRecord*> stale;
     for (const CoverageRecord* row : tile_rows) {
-      if (row->prior_row_version == row_version) continue;  // still current
-      PointBits bits(0);
-      if (prior && prior->point_count > 0) {
-        if (!points) points = DecodePoints(prior->points);
+      if (row->prior_row_version != row_version) stale.push_back(row);
+    }
+    if (stale.empty()) continue;
+    PointCloud points;
+    if (prior && prior->point_count > 0)
+      points = DecodePoints(storage.priors().GetTile(tile, version)->points);
+    std::vector<CoverageRecord> writes;
+    for (const CoverageRecord* row : stale) {
+      PointBits bits(points.size());
+      if (!points.empty()) {
         sessions_read.insert(row->session_id);
-        const ObservedArea* area = octrees.Session(row->session_id);
-        bits = area ? ObservedBits(*area, *points) : PointBits(points->size());
+        if (const ObservedArea* area = octrees.Session(row->session_id))
+          bits = ObservedBits(*area, points);
       }
       writes.push_back(
           MakeRecord(tile, row->session_id, row->vehicle_id, row->observed_ms, prior, bits));
     }
-    if (writes.empty()) continue;
     storage.coverage().Put(writes);
     out.rows += static_cast<int64_t>(writes.size());
     out.tiles += 1;
