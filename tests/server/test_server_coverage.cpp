@@ -4,8 +4,8 @@
 // behind it (never in view), so one session observes exactly half of the tile. The oracle for
 // every count is the sessions' stored octrees asked point by point (ObservedArea::IsObserved).
 // Then: a window of days leaves an old session out, a refresh that changes the prior and a
-// rollback recompute the coverage against the new points, and bad parameters are refused (also
-// over HTTP, as 400).
+// rollback or an import recompute the coverage against the new points, and bad parameters are
+// refused (also over HTTP, as 400).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -254,6 +254,21 @@ TEST_P(Coverage, ARefreshThatChangesThePriorRecomputesTheCoverage) {
   EXPECT_EQ(back["observed_points"], 128);
   const Json after = service_->ListCoverageTiles("-100,-100,200,200", 30, 1, 1000);
   EXPECT_EQ(after["total"], 1) << "the other tiles are empty again";
+}
+
+TEST_P(Coverage, AnImportOfANewPriorRecomputesTheCoverage) {
+  const int64_t s = Drive("car", 16);
+  // The new prior moves tile 0_0's points: the front patch shifted 4 m in x, still in view.
+  const PointCloud moved = GroundPatch(14, 2);
+  const fs::path file = dir_ / "moved.pcd";
+  WriteCloud(file.string(), moved);
+  const Json imported = service_->ImportPriorFile(file.string(), "moved patch");
+  EXPECT_GT(imported["coverage_rows_recomputed"].get<int64_t>(), 0) << imported.dump();
+  const Json t = Listed("0_0", 30);
+  EXPECT_EQ(t["prior_points"], 64);
+  EXPECT_EQ(t["observed_points"], ObservedByAny(PriorPoints("0_0"), {s}));
+  EXPECT_EQ(t["observed_points"], 64);
+  EXPECT_EQ(t["sessions"], 1);
 }
 
 TEST_P(Coverage, BadParametersAreRefusedByName) {
