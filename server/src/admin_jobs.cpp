@@ -202,7 +202,7 @@ Json RunRefreshJob(JobContext& ctx) {
     for (const Json& t : result["tiles"])
       refreshed.push_back(*TileId::FromString(t["tile"].get<std::string>()));
     ReclassifyAround(ctx, grid, refreshed, v.version, cc);
-    result["coverage"] = CoverageJson(RecomputeCoverage(ctx.storage, v.version));
+    result["coverage"] = CoverageJson(RecomputeCoverage(ctx.storage));
     result["resumed"] = true;
     return result;
   }
@@ -256,7 +256,7 @@ Json RunRefreshJob(JobContext& ctx) {
   for (const auto& w : writes) refreshed.push_back(w.tile);
   ReclassifyAround(ctx, grid, refreshed, version, cc);
   // 4. Sessions' coverage of the refreshed tiles, against their new points.
-  result["coverage"] = CoverageJson(RecomputeCoverage(ctx.storage, version));
+  result["coverage"] = CoverageJson(RecomputeCoverage(ctx.storage));
   return result;
 }
 

@@ -252,17 +252,13 @@ Json RunCommitJob(JobContext& ctx) {
   ctx.Progress(0.85, "aggregated " + std::to_string(by_tile.size()) + " tiles");
   const auto t4 = std::chrono::steady_clock::now();
 
-  // 5. Coverage of the touched tiles' prior points (idempotent, so a resumed job writes it
-  // again). Every tile where the session observed a prior point is a touched tile.
-  int64_t tiles_covered = 0;
-  {
-    std::vector<TileId> tiles;
-    for (const auto& [tile, points] : by_tile) tiles.push_back(tile);
-    const std::vector<CoverageRecord> rows = SessionCoverage(
-        ctx.storage, *session, session_observed.area, tiles, prior_version.value_or(0));
-    ctx.storage.coverage().Put(rows);
-    for (const CoverageRecord& r : rows) tiles_covered += r.observed_points > 0 ? 1 : 0;
-  }
+  // 5. Coverage of the touched tiles' prior points at the latest version (idempotent, so a
+  // resumed job writes it again). Every tile where the session observed a prior point is a
+  // touched tile.
+  std::vector<TileId> touched;
+  for (const auto& [tile, points] : by_tile) touched.push_back(tile);
+  const int64_t tiles_covered =
+      WriteSessionCoverage(ctx.storage, *session, session_observed.area, touched);
   const auto t4c = std::chrono::steady_clock::now();
 
   // 6. Reclassify touched tiles and neighbours whose margin saw the new evidence.

@@ -53,7 +53,11 @@ std::vector<CoverageRecord> SessionCoverage(Storage& storage, const SessionRecor
   return out;
 }
 
-CoverageRecomputed RecomputeCoverage(Storage& storage, int64_t version) {
+namespace {
+
+// One pass of RecomputeCoverage against `version`, adding to *out.
+void RecomputeAt(Storage& storage, int64_t version, CoverageRecomputed* out_total) {
+  CoverageRecomputed& out = *out_total;
   constexpr double kLow = std::numeric_limits<int32_t>::min();
   constexpr double kHigh = std::numeric_limits<int32_t>::max();
   const Rect everywhere{kLow, kLow, kHigh, kHigh};
@@ -65,7 +69,6 @@ CoverageRecomputed RecomputeCoverage(Storage& storage, int64_t version) {
   for (PriorTileRecord& t : storage.priors().ListTiles(everywhere, version))
     listed.emplace(t.tile, std::move(t));
 
-  CoverageRecomputed out;
   ObservedCache octrees(storage);
   std::set<int64_t> sessions_read;
   // Tile by tile: one decode of the tile's points, one transaction for its rows.
@@ -98,8 +101,41 @@ CoverageRecomputed RecomputeCoverage(Storage& storage, int64_t version) {
     out.rows += static_cast<int64_t>(writes.size());
     out.tiles += 1;
   }
-  out.sessions = static_cast<int64_t>(sessions_read.size());
+  out.sessions += static_cast<int64_t>(sessions_read.size());
+}
+
+}  // namespace
+
+CoverageRecomputed RecomputeCoverage(Storage& storage) {
+  CoverageRecomputed out;
+  // Against the latest version, again if another version was written meanwhile: a writer that
+  // ran concurrently (an import, a rollback beside a refresh) then leaves current rows, whichever
+  // pass wrote last.
+  std::optional<int64_t> version = storage.priors().LatestVersion();
+  while (version) {
+    RecomputeAt(storage, *version, &out);
+    const std::optional<int64_t> latest = storage.priors().LatestVersion();
+    if (latest == version) break;
+    version = latest;
+  }
   return out;
+}
+
+int64_t WriteSessionCoverage(Storage& storage, const SessionRecord& session,
+                             const ObservedArea& area, const std::vector<TileId>& tiles) {
+  std::optional<int64_t> version = storage.priors().LatestVersion();
+  while (true) {
+    const std::vector<CoverageRecord> rows =
+        SessionCoverage(storage, session, area, tiles, version.value_or(0));
+    storage.coverage().Put(rows);
+    const std::optional<int64_t> latest = storage.priors().LatestVersion();
+    if (latest == version) {
+      int64_t covered = 0;
+      for (const CoverageRecord& r : rows) covered += r.observed_points > 0 ? 1 : 0;
+      return covered;
+    }
+    version = latest;
+  }
 }
 
 nlohmann::json CoverageJson(const CoverageRecomputed& r) {

@@ -32,10 +32,17 @@ struct CoverageRecomputed {
   int64_t sessions = 0;  // distinct sessions whose octree was read
 };
 
-// After prior version `version` was written: every row whose tile now reads from another prior
-// row is recomputed from its session's stored octree (no bits set if the session has none).
-// Idempotent (a resumed job runs it again).
-CoverageRecomputed RecomputeCoverage(Storage& storage, int64_t version);
+// After a prior version was written: every row whose tile reads from another prior row at the
+// latest version is recomputed from its session's stored octree (no bits set if the session
+// has none); repeated while the latest version moves meanwhile. Idempotent (a resumed job runs
+// it again).
+CoverageRecomputed RecomputeCoverage(Storage& storage);
+
+// The commit's rows: SessionCoverage of these tiles at the latest version, written, and again
+// if a version was written meanwhile (whose own recomputation may have missed them). Returns
+// the tiles with an observed point.
+int64_t WriteSessionCoverage(Storage& storage, const SessionRecord& session,
+                             const ObservedArea& area, const std::vector<TileId>& tiles);
 // {"rows", "tiles", "sessions"} for a job's result.
 nlohmann::json CoverageJson(const CoverageRecomputed& r);
 

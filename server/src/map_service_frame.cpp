@@ -162,7 +162,7 @@ Json MapService::ImportPriorFile(const std::string& path, const std::string& not
                                  << " non-finite dropped), frame " << Describe(frame)
                                  << (chosen ? " (origin chosen from the cloud)" : ""));
   // Sessions' coverage of the replaced tiles, against the new points.
-  const CoverageRecomputed coverage = RecomputeCoverage(*storage_, version);
+  const CoverageRecomputed coverage = RecomputeCoverage(*storage_);
   Json out{{"prior_version", version},
            {"points", cloud.size()},
            {"tiles", tiles.size()},

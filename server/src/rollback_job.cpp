@@ -58,7 +58,7 @@ Json RunRollbackJob(JobContext& ctx) {
     return Json{{"prior_version", written->version},
                 {"copy_of", target},
                 {"resumed", true},
-                {"coverage", CoverageJson(RecomputeCoverage(ctx.storage, written->version))},
+                {"coverage", CoverageJson(RecomputeCoverage(ctx.storage))},
                 {"clusters", CountsJson(counts)}};
   }
   const std::optional<int64_t> latest = priors.LatestVersion();
@@ -91,7 +91,7 @@ Json RunRollbackJob(JobContext& ctx) {
   const RollbackClusterCounts counts =
       ReconcileClustersWithRollback(ctx.storage, ctx.job.id, target, version, NowMs());
   // 4. Sessions' coverage against the copied points (every tile has a new row).
-  const CoverageRecomputed coverage = RecomputeCoverage(ctx.storage, version);
+  const CoverageRecomputed coverage = RecomputeCoverage(ctx.storage);
   Json out{{"prior_version", version},
            {"copy_of", target},
            {"parent_version", *latest},

@@ -242,7 +242,7 @@ TEST_P(Coverage, ARefreshThatChangesThePriorRecomputesTheCoverage) {
     EXPECT_EQ(r.prior_row_version, row ? row->version : 0) << r.tile.ToString();
   }
   // Running the recomputation again (as a resumed job does) finds nothing to do.
-  EXPECT_EQ(RecomputeCoverage(service_->storage(), v2).rows, 0);
+  EXPECT_EQ(RecomputeCoverage(service_->storage()).rows, 0);
 
   // A rollback to the first version copies its points as new rows: recomputed again.
   const int64_t rollback = service_->CreateJob({{"type", "rollback"}, {"version", v1}})["job_id"];
