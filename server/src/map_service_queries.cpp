@@ -69,20 +69,6 @@ FilePayload CloudPayload(const Cloud& cloud, const std::string& format, const Ma
   return p;
 }
 
-TileId ParseTile(const std::string& text) {
-  auto tile = TileId::FromString(text);
-  if (!tile)
-    throw ApiError(ApiCode::kInvalidArgument, "tile id '" + text + "' is not of the form ix_iy");
-  return *tile;
-}
-
-// A tile's [min_x, min_y, max_x, max_y] in user coordinates.
-Json UserBounds(const TileGrid& grid, const MapFrame& frame, const TileId& tile) {
-  const AxisAlignedBox b = grid.Bounds(tile);
-  const Eigen::Vector3d lo = UserPoint(frame, b.min), hi = UserPoint(frame, b.max);
-  return {lo.x(), lo.y(), hi.x(), hi.y()};
-}
-
 Json JobToJson(const JobRecord& j) {
   Json out{{"job_id", j.id},
            {"type", ToString(j.type)},

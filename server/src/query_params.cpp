@@ -15,6 +15,19 @@ Rect TileRange(const TileGrid& grid, const MapFrame& frame, double min_x, double
   return Rect{double(a.ix()), double(a.iy()), double(b.ix()), double(b.iy())};
 }
 
+TileId ParseTile(const std::string& text) {
+  auto tile = TileId::FromString(text);
+  if (!tile)
+    throw ApiError(ApiCode::kInvalidArgument, "tile id '" + text + "' is not of the form ix_iy");
+  return *tile;
+}
+
+nlohmann::json UserBounds(const TileGrid& grid, const MapFrame& frame, const TileId& tile) {
+  const AxisAlignedBox b = grid.Bounds(tile);
+  const Eigen::Vector3d lo = UserPoint(frame, b.min), hi = UserPoint(frame, b.max);
+  return {lo.x(), lo.y(), hi.x(), hi.y()};
+}
+
 std::vector<double> ParseBbox(const std::string& text) {
   std::vector<double> v;
   std::stringstream ss(text);
