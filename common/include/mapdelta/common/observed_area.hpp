@@ -96,7 +96,8 @@ class ObservedArea {
   static ObservedArea Load(const std::string& bt_path);
   std::string SerializeBinary() const;
   // OctoMap .ot: every voxel's log-odds, so IsSeenFree reads the same evidence after a round
-  // trip (about 2.5x the bytes of .bt before compression).
+  // trip. Measured on a 636-keyframe paper-preset session: 2.7 MB raw, 0.43 MB deflated, 6x
+  // the deflated .bt (0.07 MB) and under 1 % of the session's 50 MB of depth images.
   std::string SerializeEvidence() const;
   // Either format, told apart by the first line.
   static ObservedArea DeserializeBinary(const std::string& bytes);
