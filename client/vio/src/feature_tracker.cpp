@@ -32,6 +32,8 @@ void Compact(std::vector<T>* v, const std::vector<unsigned char>& keep) {
 
 void FeatureTracker::Reset() {
   prev_pyramid_.clear();
+  cell_max_.clear();
+  cell_kept_.clear();
   points_.clear();
   ids_.clear();
   counts_.clear();
@@ -45,13 +47,14 @@ std::vector<TrackedFeature> FeatureTracker::Track(const cv::Mat& left, const cv:
   // pyramid is kept as the next frame's previous one.
   cv::buildOpticalFlowPyramid(left, left_pyramid_, window, config_.klt_levels, true,
                               cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
-  cv::buildOpticalFlowPyramid(right, right_pyramid_, window, 1, true, cv::BORDER_REFLECT_101,
-                              cv::BORDER_CONSTANT,
-                              false);  // the stereo KLT uses one level
+  cv::buildOpticalFlowPyramid(right, right_pyramid_, window, config_.stereo_klt_levels, true,
+                              cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT,
+                              false);  // only the levels the stereo KLT uses
   if (!prev_pyramid_.empty() && !points_.empty()) TrackTemporal(left);
   Detect(left);
   MatchStereo(left, right);
   std::swap(prev_pyramid_, left_pyramid_);
+  ++frame_;
   std::vector<TrackedFeature> out(points_.size());
   for (size_t i = 0; i < points_.size(); ++i) {
     out[i].id = ids_[i];
@@ -106,22 +109,113 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
 
 void FeatureTracker::Detect(const cv::Mat& left) {
   const int wanted = config_.max_features - static_cast<int>(points_.size());
-  if (wanted <= 0) return;
-  cv::Mat mask(left.size(), CV_8UC1, cv::Scalar(255));
-  for (const auto& p : points_) {
-    cv::circle(mask, p, static_cast<int>(config_.min_distance_px), cv::Scalar(0), cv::FILLED);
+  const int cols = std::max(1, config_.grid_cols), rows = std::max(1, config_.grid_rows);
+  const size_t cells = static_cast<size_t>(cols * rows);
+  if (cell_max_.size() != cells) {  // first frame (or after a reset): every cell is searched
+    cell_max_.assign(cells, 0.f);
+    cell_kept_.assign(cells, -1);
   }
-  std::vector<cv::Point2f> corners;
-  cv::goodFeaturesToTrack(left, corners, wanted, config_.corner_quality, config_.min_distance_px,
-                          mask);
-  for (const auto& c : corners) {
-    if (!Inside(c, left)) continue;
-    points_.push_back(c);
+  if (wanted <= 0) return;
+  const int quota = (config_.max_features + static_cast<int>(cells) - 1) / static_cast<int>(cells);
+  auto cell_rect = [&](size_t c) {
+    const int cx = static_cast<int>(c) % cols, cy = static_cast<int>(c) / cols;
+    const int x0 = cx * left.cols / cols, x1 = (cx + 1) * left.cols / cols;
+    const int y0 = cy * left.rows / rows, y1 = (cy + 1) * left.rows / rows;
+    return cv::Rect(x0, y0, x1 - x0, y1 - y0);
+  };
+  std::vector<int> count(cells, 0);
+  for (const auto& p : points_) {
+    const int cx = std::clamp(static_cast<int>(p.x) * cols / left.cols, 0, cols - 1);
+    const int cy = std::clamp(static_cast<int>(p.y) * rows / left.rows, 0, rows - 1);
+    ++count[static_cast<size_t>(cy * cols + cx)];
+  }
+  // Searched: the cells under their share that lost features since their last search (tracks
+  // ran out there) or whose turn it is (every detect_retry_frames frames, staggered), e.g. to
+  // take corners that came into view. A full cell or one that keeps what it had waits: the
+  // cost follows the features to replace, not the image's texture.
+  const int retry = std::max(1, config_.detect_retry_frames);
+  std::vector<size_t> open;
+  for (size_t c = 0; c < cells; ++c) {
+    if (count[c] >= quota) continue;
+    if (count[c] < cell_kept_[c] || (frame_ + c) % static_cast<uint64_t>(retry) == 0 ||
+        cell_kept_[c] < 0)
+      open.push_back(c);
+  }
+  if (open.empty()) return;
+  cv::Mat mask(left.size(), CV_8UC1, cv::Scalar(255));
+  const int radius = static_cast<int>(config_.min_distance_px);
+  for (const auto& p : points_) cv::circle(mask, p, radius, cv::Scalar(0), cv::FILLED);
+  // Corner strength (the minimum eigenvalue, as goodFeaturesToTrack) in the open cells, on views
+  // of the image (the filters read the pixels around a cell, not a mirrored edge). As in
+  // goodFeaturesToTrack with a mask, the threshold is relative to the strongest corner where
+  // new features may go; cells not searched now count with their value from their last search.
+  std::vector<cv::Mat> strength(cells);
+  for (size_t c : open) {
+    const cv::Rect r = cell_rect(c);
+    cv::Mat& eig = strength[c];
+    cv::cornerMinEigenVal(left(r), eig, 3, 3);
+    double max_value = 0;
+    cv::minMaxLoc(eig, nullptr, &max_value, nullptr, nullptr, mask(r));
+    cell_max_[c] = static_cast<float>(max_value);
+  }
+  const float threshold = static_cast<float>(config_.corner_quality) *
+                          *std::max_element(cell_max_.begin(), cell_max_.end());
+  struct Candidate {
+    float score;
+    cv::Point2f p;
+  };
+  auto stronger = [](const Candidate& a, const Candidate& b) { return a.score > b.score; };
+  std::vector<Candidate> chosen, leftover, in_cell;
+  for (size_t c : open) {
+    const cv::Rect r = cell_rect(c);
+    const cv::Mat& eig = strength[c];
+    cv::Mat peaks;
+    cv::dilate(eig, peaks, cv::Mat());  // 3x3 local maxima, as goodFeaturesToTrack
+    in_cell.clear();
+    for (int y = 0; y < eig.rows; ++y) {
+      const float* e = eig.ptr<float>(y);
+      const float* d = peaks.ptr<float>(y);
+      const uint8_t* m = mask.ptr<uint8_t>(r.y + y) + r.x;
+      for (int x = 0; x < eig.cols; ++x) {
+        if (e[x] > threshold && e[x] == d[x] && m[x]) {
+          const cv::Point2f p(static_cast<float>(r.x + x), static_cast<float>(r.y + y));
+          if (Inside(p, left)) in_cell.push_back({e[x], p});
+        }
+      }
+    }
+    std::sort(in_cell.begin(), in_cell.end(), stronger);
+    int room = quota - count[c];
+    for (const Candidate& k : in_cell) {
+      if (!mask.at<uint8_t>(cv::Point(k.p))) continue;  // too close to one chosen before
+      if (room > 0) {
+        chosen.push_back(k);
+        cv::circle(mask, k.p, radius, cv::Scalar(0), cv::FILLED);
+        --room;
+      } else {
+        leftover.push_back(k);
+      }
+    }
+    cell_kept_[c] = quota - room;
+  }
+  // Over budget: the strongest first. Under it (textureless cells): the rest of the budget to
+  // the strongest leftovers of the searched cells, still min_distance apart.
+  std::sort(chosen.begin(), chosen.end(), stronger);
+  if (static_cast<int>(chosen.size()) > wanted) chosen.resize(static_cast<size_t>(wanted));
+  std::sort(leftover.begin(), leftover.end(), stronger);
+  for (const Candidate& k : leftover) {
+    if (static_cast<int>(chosen.size()) >= wanted) break;
+    if (!mask.at<uint8_t>(cv::Point(k.p))) continue;
+    chosen.push_back(k);
+    cv::circle(mask, k.p, radius, cv::Scalar(0), cv::FILLED);
+  }
+  for (const Candidate& k : chosen) {
+    points_.push_back(k.p);
     ids_.push_back(next_id_++);
     counts_.push_back(1);
     disparity_.push_back(-1.f);
     ++stats_.detected;
   }
+  stats_.cells_searched = static_cast<int>(open.size());
 }
 
 void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
@@ -141,11 +235,18 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     const int v = static_cast<int>(std::lround(points_[i].y));
     if (u - kHalf < 0 || v - kHalf < 0 || u + kHalf >= left.cols || v + kHalf >= left.rows)
       continue;
-    // Search all disparities for new features, a band around the last one for tracked ones.
+    // A band around the last disparity for matched features; all disparities for new ones,
+    // and for unmatched tracks only every stereo_retry_frames frames (staggered by id): on real
+    // frames two thirds of the features have no right match (occluded, outside the right
+    // image, or just unmatched) and searching them all on every frame was most of the cost.
     int d_min = 0, d_max = static_cast<int>(config_.max_disparity_px);
     if (last_disparity[i] >= 0) {
       d_min = std::max(0, static_cast<int>(last_disparity[i]) - 12);
       d_max = std::min(d_max, static_cast<int>(last_disparity[i]) + 12);
+    } else if (counts_[i] > 1 && config_.stereo_retry_frames > 1 &&
+               (frame_ + ids_[i]) % static_cast<uint64_t>(config_.stereo_retry_frames) != 0) {
+      ++stats_.stereo_deferred;
+      continue;
     }
     const int x0 = std::max(0, u - d_max - kHalf);
     const int x1 = u - d_min + kHalf + 1;
@@ -175,11 +276,13 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   std::vector<unsigned char> status, status_back;
   std::vector<float> err;
   const cv::Size window(config_.klt_window_px, config_.klt_window_px);
+  const cv::TermCriteria stop(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                              config_.stereo_klt_iterations, 0.01);
   cv::calcOpticalFlowPyrLK(left_pyramid_, right_pyramid_, candidates, refined, status, err, window,
-                           1, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
+                           config_.stereo_klt_levels, stop, cv::OPTFLOW_USE_INITIAL_FLOW);
   back = candidates;
   cv::calcOpticalFlowPyrLK(right_pyramid_, left_pyramid_, refined, back, status_back, err, window,
-                           1, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
+                           config_.stereo_klt_levels, stop, cv::OPTFLOW_USE_INITIAL_FLOW);
   // 3. Row and consistency checks.
   for (size_t k = 0; k < index.size(); ++k) {
     const cv::Point2f& l = candidates[k];

@@ -16,6 +16,21 @@ struct TrackerConfig {
   double stereo_row_px = 1.5;        // max |v_right - v_left| on a rectified pair
   double max_disparity_px = 256.0;
   double min_zncc = 0.7;  // coarse stereo match acceptance
+  // Bounded cost (issue 25: real textures made the front end 3-4x slower than simulated ones).
+  // Corners are looked for only in the cells of this grid that hold fewer than their share of
+  // max_features and lost features since their last search (tracks ran out there), or, if
+  // they are under their share, every detect_retry_frames frames; the strongest first per cell,
+  // then the rest of the budget to the strongest leftovers of those cells.
+  int grid_cols = 8, grid_rows = 5;
+  int detect_retry_frames = 5;
+  // A feature with no stereo match searches the whole disparity range again only every this
+  // many frames (staggered by id), not on every frame; matched ones search a band around their
+  // last disparity, new ones the whole range.
+  int stereo_retry_frames = 5;
+  // Stereo KLT refinement from the ZNCC guess (within a pixel): pyramid levels above the base
+  // and iterations.
+  int stereo_klt_levels = 0;
+  int stereo_klt_iterations = 10;
 };
 
 }  // namespace mapdelta::vio
