@@ -90,6 +90,8 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
     c->tracker.stereo_klt_levels = static_cast<int>(v);
   else if (key == "stereo_klt_iterations")
     c->tracker.stereo_klt_iterations = static_cast<int>(v);
+  else if (key == "back_check_levels")
+    c->tracker.back_check_levels = static_cast<int>(v);
   else if (key == "outlier")
     c->outlier_sigmas = v;
   else if (key == "prediction_gate")
@@ -141,7 +143,8 @@ bool Parse(int argc, char** argv, Options* o) {
                 "init_iterations, analytic (0/1), motion_only (0/1), max_features, klt_window, "
                 "klt_levels, min_distance, pixel_sigma, huber, parallax, right_other (0/1), "
                 "covariance (0/1), min_zncc, grid_cols, grid_rows, detect_retry, stereo_retry, "
-                "stereo_klt_levels, stereo_klt_iterations, outlier (sigmas), prediction_gate "
+                "stereo_klt_levels, stereo_klt_iterations, back_check_levels, outlier (sigmas), "
+                "prediction_gate "
                 "(sigmas), sigma_ba "
                 "(m/s^2), sigma_bg (rad/s), init_bias_gate (sigmas), gyro_floor, accel_floor, "
                 "gyro_walk_floor, accel_walk_floor (IMU noise floors), max_time (s), "

@@ -73,9 +73,14 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
   std::vector<float> err;
   cv::calcOpticalFlowPyrLK(prev_pyramid_, left_pyramid_, points_, next, status, err, window,
                            config_.klt_levels);
+  // The way back starts at the original points, so it is a check that they are where the
+  // track leads back to, not a second search: the base level with a few iterations suffices
+  // (the coarse levels were a third of the front end's KLT time on real frames).
   back = points_;
+  const cv::TermCriteria back_stop(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                   config_.back_check_iterations, 0.01);
   cv::calcOpticalFlowPyrLK(left_pyramid_, prev_pyramid_, next, back, status_back, err, window,
-                           config_.klt_levels, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
+                           config_.back_check_levels, back_stop, cv::OPTFLOW_USE_INITIAL_FLOW);
   std::vector<unsigned char> keep(points_.size(), 0);
   for (size_t i = 0; i < points_.size(); ++i) {
     const float fb = std::hypot(back[i].x - points_[i].x, back[i].y - points_[i].y);

@@ -31,6 +31,10 @@ struct TrackerConfig {
   // and iterations.
   int stereo_klt_levels = 0;
   int stereo_klt_iterations = 10;
+  // The temporal forward-backward check (back from the tracked point, starting at the
+  // original): pyramid levels above the base and iterations.
+  int back_check_levels = 0;
+  int back_check_iterations = 10;
 };
 
 }  // namespace mapdelta::vio
