@@ -3,7 +3,8 @@
 # one run, interleaved A B A B ... so both see the same machine load; prints each run's
 # "current" row (front end and estimator ms per frame, thread CPU), the pipelined processing
 # real-time factor, the tracking-quality row, then the medians side by side with their ratio
-# and the load average before and after (bench/README.md).
+# and the load average before and after (bench/README.md). Ratio = baseline / new: above 1 a
+# time fell (the new binary is faster) or a quality figure fell.
 #   bash bench/vio_compare.sh BASELINE_BENCH_VIO NEW_BENCH_VIO SEQUENCE [ROUNDS] [SECONDS]
 set -euo pipefail
 if [ $# -lt 3 ]; then
@@ -35,7 +36,7 @@ echo "load after:  $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%-5s %5s %9s %9s %8s %8s %7s %7s %6s %6s %8s %7s %8s %7s %9s\n' side round front_ms \
   front_cpu est_ms est_cpu pose_s ate_m resets rtf features tracked track_len stereo landmarks
 while read -r line; do printf '%-5s %5s %9s %9s %8s %8s %7s %7s %6s %6s %8s %7s %8s %7s %9s\n' $line; done <"$work/rows"
-# Medians per side and the ratio base / new (> 1: the new binary is faster or higher).
+# Medians per side and the ratio baseline / new.
 awk '
   function median(side, col,   n, i, j, t, v) {
     n = 0

@@ -168,15 +168,14 @@ void FeatureTracker::Detect(const cv::Mat& left) {
   struct Candidate {
     float score;
     cv::Point2f p;
+    size_t cell;
   };
-  auto stronger = [](const Candidate& a, const Candidate& b) { return a.score > b.score; };
-  std::vector<Candidate> chosen, leftover, in_cell;
+  std::vector<Candidate> candidates;
   for (size_t c : open) {
     const cv::Rect r = cell_rect(c);
     const cv::Mat& eig = strength[c];
     cv::Mat peaks;
     cv::dilate(eig, peaks, cv::Mat());  // 3x3 local maxima, as goodFeaturesToTrack
-    in_cell.clear();
     for (int y = 0; y < eig.rows; ++y) {
       const float* e = eig.ptr<float>(y);
       const float* d = peaks.ptr<float>(y);
@@ -184,35 +183,30 @@ void FeatureTracker::Detect(const cv::Mat& left) {
       for (int x = 0; x < eig.cols; ++x) {
         if (e[x] > threshold && e[x] == d[x] && m[x]) {
           const cv::Point2f p(static_cast<float>(r.x + x), static_cast<float>(r.y + y));
-          if (Inside(p, left)) in_cell.push_back({e[x], p});
+          candidates.push_back({e[x], p, c});
         }
       }
     }
-    std::sort(in_cell.begin(), in_cell.end(), stronger);
-    int room = quota - count[c];
-    for (const Candidate& k : in_cell) {
-      if (!mask.at<uint8_t>(cv::Point(k.p))) continue;  // too close to one chosen before
-      if (room > 0) {
-        chosen.push_back(k);
-        cv::circle(mask, k.p, radius, cv::Scalar(0), cv::FILLED);
-        --room;
-      } else {
-        leftover.push_back(k);
-      }
-    }
-    cell_kept_[c] = quota - room;
   }
-  // Over budget: the strongest first. Under it (textureless cells): the rest of the budget to
-  // the strongest leftovers of the searched cells, still min_distance apart.
-  std::sort(chosen.begin(), chosen.end(), stronger);
-  if (static_cast<int>(chosen.size()) > wanted) chosen.resize(static_cast<size_t>(wanted));
-  std::sort(leftover.begin(), leftover.end(), stronger);
-  for (const Candidate& k : leftover) {
-    if (static_cast<int>(chosen.size()) >= wanted) break;
-    if (!mask.at<uint8_t>(cv::Point(k.p))) continue;
-    chosen.push_back(k);
+  // The strongest first, min_distance apart, as goodFeaturesToTrack does on the whole image:
+  // the grid decides where to look, not a share per cell (a per-cell share put weak corners of
+  // poor cells before strong ones and shortened the tracks on the simulator: README).
+  std::sort(candidates.begin(), candidates.end(),
+            [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  // Corners in the border strip take their place and keep others min_distance away but are not
+  // kept (as goodFeaturesToTrack's output filtered by Inside() did): admitting the next corner
+  // instead put short-lived features at the image edge (tracks 6.1 -> 5.2 frames on tiny S1_01).
+  std::vector<Candidate> chosen;
+  int taken = 0;
+  for (const Candidate& k : candidates) {
+    if (taken >= wanted) break;
+    if (!mask.at<uint8_t>(cv::Point(k.p))) continue;  // too close to a feature or one chosen
     cv::circle(mask, k.p, radius, cv::Scalar(0), cv::FILLED);
+    ++taken;
+    if (Inside(k.p, left)) chosen.push_back(k);
   }
+  for (size_t c : open) cell_kept_[c] = count[c];
+  for (const Candidate& k : chosen) ++cell_kept_[k.cell];
   for (const Candidate& k : chosen) {
     points_.push_back(k.p);
     ids_.push_back(next_id_++);
@@ -230,6 +224,11 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   std::vector<float> last_disparity = disparity_;
   disparity_.assign(n, -1.f);
   if (n == 0) return;
+  // Unmatched tracks (no disparity, seen before) share the full-search budget.
+  size_t unmatched = 0;
+  for (size_t i = 0; i < n; ++i) unmatched += last_disparity[i] < 0 && counts_[i] > 1 ? 1 : 0;
+  const size_t budget = static_cast<size_t>(std::max(1, config_.stereo_full_searches));
+  const uint64_t retry_period = (unmatched + budget - 1) / budget;
   // 1. Coarse disparity by ZNCC along the row (large baselines defeat plain KLT).
   constexpr int kHalf = 5;
   std::vector<cv::Point2f> guess(n), candidates;
@@ -240,16 +239,16 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     const int v = static_cast<int>(std::lround(points_[i].y));
     if (u - kHalf < 0 || v - kHalf < 0 || u + kHalf >= left.cols || v + kHalf >= left.rows)
       continue;
-    // A band around the last disparity for matched features; all disparities for new ones,
-    // and for unmatched tracks only every stereo_retry_frames frames (staggered by id): on real
-    // frames two thirds of the features have no right match (occluded, outside the right
-    // image, or just unmatched) and searching them all on every frame was most of the cost.
+    // A band around the last disparity for matched features; all disparities for new ones and
+    // for unmatched tracks, the latter at most stereo_full_searches per frame (staggered by id
+    // when there are more): on real frames about half of the features find no right match
+    // (occluded, outside the right image, weak) and searching them all on every frame was
+    // most of the front end's cost.
     int d_min = 0, d_max = static_cast<int>(config_.max_disparity_px);
     if (last_disparity[i] >= 0) {
       d_min = std::max(0, static_cast<int>(last_disparity[i]) - 12);
       d_max = std::min(d_max, static_cast<int>(last_disparity[i]) + 12);
-    } else if (counts_[i] > 1 && config_.stereo_retry_frames > 1 &&
-               (frame_ + ids_[i]) % static_cast<uint64_t>(config_.stereo_retry_frames) != 0) {
+    } else if (counts_[i] > 1 && retry_period > 1 && (frame_ + ids_[i]) % retry_period != 0) {
       ++stats_.stereo_deferred;
       continue;
     }

@@ -19,14 +19,13 @@ struct TrackerConfig {
   // Bounded cost (issue 25: real textures made the front end 3-4x slower than simulated ones).
   // Corners are looked for only in the cells of this grid that hold fewer than their share of
   // max_features and lost features since their last search (tracks ran out there), or, if
-  // they are under their share, every detect_retry_frames frames; the strongest first per cell,
-  // then the rest of the budget to the strongest leftovers of those cells.
+  // under their share, every detect_retry_frames frames (staggered); among those cells the
+  // strongest corners first, as goodFeaturesToTrack.
   int grid_cols = 8, grid_rows = 5;
   int detect_retry_frames = 5;
-  // A feature with no stereo match searches the whole disparity range again only every this
-  // many frames (staggered by id), not on every frame; matched ones search a band around their
-  // last disparity, new ones the whole range.
-  int stereo_retry_frames = 5;
+  // Full-range stereo searches of unmatched tracks per frame (new features always get one);
+  // with more unmatched tracks each waits its turn (staggered by id).
+  int stereo_full_searches = 100;
   // Stereo KLT refinement from the ZNCC guess (within a pixel): pyramid levels above the base
   // and iterations.
   int stereo_klt_levels = 0;
@@ -34,7 +33,7 @@ struct TrackerConfig {
   // The temporal forward-backward check (back from the tracked point, starting at the
   // original): pyramid levels above the base and iterations.
   int back_check_levels = 0;
-  int back_check_iterations = 10;
+  int back_check_iterations = 30;
 };
 
 }  // namespace mapdelta::vio
