@@ -26,10 +26,12 @@ struct TrackerConfig {
   // Full-range stereo searches of unmatched tracks per frame (new features always get one);
   // with more unmatched tracks each waits its turn (staggered by id).
   int stereo_full_searches = 100;
-  // Stereo KLT refinement from the ZNCC guess (within a pixel): pyramid levels above the base
-  // and iterations.
-  int stereo_klt_levels = 0;
-  int stereo_klt_iterations = 10;
+  // Stereo KLT refinement from the ZNCC guess: pyramid levels above the base and iterations.
+  // One level and 30 iterations as before: the base level with 10 iterations raised the 90th
+  // percentile of the disparity error on the simulated EuRoC rig from 0.59 to 0.83 px
+  // (test VioEurocRig.SimulatedMh01SensorsSequence).
+  int stereo_klt_levels = 1;
+  int stereo_klt_iterations = 30;
   // The temporal forward-backward check (back from the tracked point, starting at the
   // original): pyramid levels above the base and iterations.
   int back_check_levels = 0;
