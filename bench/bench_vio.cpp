@@ -110,7 +110,7 @@ Row Run(const std::string& name, const mapdelta::EurocSequence& seq,
   size_t imu_index = 0;
   for (const auto& f : frames) {
     const double t_s = 1e-9 * static_cast<double>(f.t_ns - frames.front().t_ns);
-    if (t_s > seconds) break;
+    if (seconds > 0 && t_s > seconds) break;  // --seconds 0: the whole sequence
     FeedImu(seq, f.t_ns, &imu_index, &odo);
     const cv::Mat left = cv::imread(f.left_path, cv::IMREAD_GRAYSCALE);
     const cv::Mat right = cv::imread(f.right_path, cv::IMREAD_GRAYSCALE);

@@ -112,6 +112,7 @@ StereoRectifier::StereoRectifier(const EurocCamera& cam0, const EurocCamera& cam
     out.T_body_cam = in[i]->T_body_cam * T_cam_rect;
     cv::initUndistortRectifyMap(*Ks[i], *Ds[i], *Rs[i], *Ps[i], size, CV_32FC1, map_x_[i],
                                 map_y_[i]);
+    cv::convertMaps(map_x_[i], map_y_[i], map_fixed_[i], map_fraction_[i], CV_16SC2);
   }
   // Pixels whose source lies outside the input image (alpha 0 keeps them to a thin rim at most).
   int outside = 0;
@@ -136,7 +137,10 @@ void StereoRectifier::Rectify(int index, const cv::Mat& in, cv::Mat* out) const 
                     std::to_string(k.height) + " images for cam" + std::to_string(index));
   }
   // Replicated borders: a source pixel just outside the image repeats the edge, never black.
-  cv::remap(in, *out, map_x_[index], map_y_[index], cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  // Fixed-point tables (1/32-pixel bilinear weights), which remap interpolates with SIMD integer
+  // arithmetic; the float ones stay for SourcePixel.
+  cv::remap(in, *out, map_fixed_[index], map_fraction_[index], cv::INTER_LINEAR,
+            cv::BORDER_REPLICATE);
 }
 
 cv::Point2d StereoRectifier::SourcePixel(int index, double u, double v) const {

@@ -78,6 +78,20 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
     c->motion_only_non_keyframes = v != 0;
   else if (key == "min_zncc")
     c->tracker.min_zncc = v;
+  else if (key == "grid_cols")
+    c->tracker.grid_cols = static_cast<int>(v);
+  else if (key == "grid_rows")
+    c->tracker.grid_rows = static_cast<int>(v);
+  else if (key == "detect_retry")
+    c->tracker.detect_retry_frames = static_cast<int>(v);
+  else if (key == "stereo_full_searches")
+    c->tracker.stereo_full_searches = static_cast<int>(v);
+  else if (key == "stereo_klt_levels")
+    c->tracker.stereo_klt_levels = static_cast<int>(v);
+  else if (key == "stereo_klt_iterations")
+    c->tracker.stereo_klt_iterations = static_cast<int>(v);
+  else if (key == "back_check_levels")
+    c->tracker.back_check_levels = static_cast<int>(v);
   else if (key == "outlier")
     c->outlier_sigmas = v;
   else if (key == "prediction_gate")
@@ -124,15 +138,19 @@ bool Parse(int argc, char** argv, Options* o) {
       .Flag("pipelined", &o->pipelined,
             "decode + track on a second thread, ahead of the estimator (same estimates, less "
             "wall time)")
-      .Repeated("set", &o->sets,
-                "override a VioConfig number: iterations, window, init_frames, init_span (s), "
-                "init_iterations, analytic (0/1), motion_only (0/1), max_features, klt_window, "
-                "klt_levels, min_distance, pixel_sigma, huber, parallax, right_other (0/1), "
-                "covariance (0/1), min_zncc, outlier (sigmas), prediction_gate (sigmas), sigma_ba "
-                "(m/s^2), sigma_bg (rad/s), init_bias_gate (sigmas), gyro_floor, accel_floor, "
-                "gyro_walk_floor, accel_walk_floor (IMU noise floors), max_time (s), "
-                "gauge_free_prior (0/1), init_pnp_points",
-                "KEY=VALUE")
+      .Repeated(
+          "set", &o->sets,
+          "override a VioConfig number: iterations, window, init_frames, init_span (s), "
+          "init_iterations, analytic (0/1), motion_only (0/1), max_features, klt_window, "
+          "klt_levels, min_distance, pixel_sigma, huber, parallax, right_other (0/1), "
+          "covariance (0/1), min_zncc, grid_cols, grid_rows, detect_retry, stereo_full_searches, "
+          "stereo_klt_levels, stereo_klt_iterations, back_check_levels, outlier (sigmas), "
+          "prediction_gate "
+          "(sigmas), sigma_ba "
+          "(m/s^2), sigma_bg (rad/s), init_bias_gate (sigmas), gyro_floor, accel_floor, "
+          "gyro_walk_floor, accel_walk_floor (IMU noise floors), max_time (s), "
+          "gauge_free_prior (0/1), init_pnp_points",
+          "KEY=VALUE")
       .Option("log-level", &o->log_level, "log level")
       .Choices("log-level", {"debug", "info", "warn", "error", "off"})
       .Require({"sequence", "out"})

@@ -32,6 +32,8 @@ void Compact(std::vector<T>* v, const std::vector<unsigned char>& keep) {
 
 void FeatureTracker::Reset() {
   prev_pyramid_.clear();
+  cell_max_.clear();
+  cell_kept_.clear();
   points_.clear();
   ids_.clear();
   counts_.clear();
@@ -45,13 +47,14 @@ std::vector<TrackedFeature> FeatureTracker::Track(const cv::Mat& left, const cv:
   // pyramid is kept as the next frame's previous one.
   cv::buildOpticalFlowPyramid(left, left_pyramid_, window, config_.klt_levels, true,
                               cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
-  cv::buildOpticalFlowPyramid(right, right_pyramid_, window, 1, true, cv::BORDER_REFLECT_101,
-                              cv::BORDER_CONSTANT,
-                              false);  // the stereo KLT uses one level
+  cv::buildOpticalFlowPyramid(right, right_pyramid_, window, config_.stereo_klt_levels, true,
+                              cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT,
+                              false);  // only the levels the stereo KLT uses
   if (!prev_pyramid_.empty() && !points_.empty()) TrackTemporal(left);
   Detect(left);
   MatchStereo(left, right);
   std::swap(prev_pyramid_, left_pyramid_);
+  ++frame_;
   std::vector<TrackedFeature> out(points_.size());
   for (size_t i = 0; i < points_.size(); ++i) {
     out[i].id = ids_[i];
@@ -70,9 +73,14 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
   std::vector<float> err;
   cv::calcOpticalFlowPyrLK(prev_pyramid_, left_pyramid_, points_, next, status, err, window,
                            config_.klt_levels);
+  // The way back starts at the original points, so it is a check that they are where the
+  // track leads back to, not a second search: the base level with a few iterations suffices
+  // (the coarse levels were a third of the front end's KLT time on real frames).
   back = points_;
+  const cv::TermCriteria back_stop(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                   config_.back_check_iterations, 0.01);
   cv::calcOpticalFlowPyrLK(left_pyramid_, prev_pyramid_, next, back, status_back, err, window,
-                           config_.klt_levels, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
+                           config_.back_check_levels, back_stop, cv::OPTFLOW_USE_INITIAL_FLOW);
   std::vector<unsigned char> keep(points_.size(), 0);
   for (size_t i = 0; i < points_.size(); ++i) {
     const float fb = std::hypot(back[i].x - points_[i].x, back[i].y - points_[i].y);
@@ -106,22 +114,107 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
 
 void FeatureTracker::Detect(const cv::Mat& left) {
   const int wanted = config_.max_features - static_cast<int>(points_.size());
-  if (wanted <= 0) return;
-  cv::Mat mask(left.size(), CV_8UC1, cv::Scalar(255));
-  for (const auto& p : points_) {
-    cv::circle(mask, p, static_cast<int>(config_.min_distance_px), cv::Scalar(0), cv::FILLED);
+  const int cols = std::max(1, config_.grid_cols), rows = std::max(1, config_.grid_rows);
+  const size_t cells = static_cast<size_t>(cols * rows);
+  if (cell_max_.size() != cells) {  // first frame (or after a reset): every cell is searched
+    cell_max_.assign(cells, 0.f);
+    cell_kept_.assign(cells, -1);
   }
-  std::vector<cv::Point2f> corners;
-  cv::goodFeaturesToTrack(left, corners, wanted, config_.corner_quality, config_.min_distance_px,
-                          mask);
-  for (const auto& c : corners) {
-    if (!Inside(c, left)) continue;
-    points_.push_back(c);
+  if (wanted <= 0) return;
+  const int quota = (config_.max_features + static_cast<int>(cells) - 1) / static_cast<int>(cells);
+  auto cell_rect = [&](size_t c) {
+    const int cx = static_cast<int>(c) % cols, cy = static_cast<int>(c) / cols;
+    const int x0 = cx * left.cols / cols, x1 = (cx + 1) * left.cols / cols;
+    const int y0 = cy * left.rows / rows, y1 = (cy + 1) * left.rows / rows;
+    return cv::Rect(x0, y0, x1 - x0, y1 - y0);
+  };
+  std::vector<int> count(cells, 0);
+  for (const auto& p : points_) {
+    const int cx = std::clamp(static_cast<int>(p.x) * cols / left.cols, 0, cols - 1);
+    const int cy = std::clamp(static_cast<int>(p.y) * rows / left.rows, 0, rows - 1);
+    ++count[static_cast<size_t>(cy * cols + cx)];
+  }
+  // Searched: the cells under their share that lost features since their last search (tracks
+  // ran out there) or whose turn it is (every detect_retry_frames frames, staggered), e.g. to
+  // take corners that came into view. A full cell or one that keeps what it had waits: the
+  // cost follows the features to replace, not the image's texture.
+  const int retry = std::max(1, config_.detect_retry_frames);
+  std::vector<size_t> open;
+  for (size_t c = 0; c < cells; ++c) {
+    if (count[c] >= quota) continue;
+    if (count[c] < cell_kept_[c] || (frame_ + c) % static_cast<uint64_t>(retry) == 0 ||
+        cell_kept_[c] < 0)
+      open.push_back(c);
+  }
+  if (open.empty()) return;
+  cv::Mat mask(left.size(), CV_8UC1, cv::Scalar(255));
+  const int radius = static_cast<int>(config_.min_distance_px);
+  for (const auto& p : points_) cv::circle(mask, p, radius, cv::Scalar(0), cv::FILLED);
+  // Corner strength (the minimum eigenvalue, as goodFeaturesToTrack) in the open cells, on views
+  // of the image (the filters read the pixels around a cell, not a mirrored edge). As in
+  // goodFeaturesToTrack with a mask, the threshold is relative to the strongest corner where
+  // new features may go; cells not searched now count with their value from their last search.
+  std::vector<cv::Mat> strength(cells);
+  for (size_t c : open) {
+    const cv::Rect r = cell_rect(c);
+    cv::Mat& eig = strength[c];
+    cv::cornerMinEigenVal(left(r), eig, 3, 3);
+    double max_value = 0;
+    cv::minMaxLoc(eig, nullptr, &max_value, nullptr, nullptr, mask(r));
+    cell_max_[c] = static_cast<float>(max_value);
+  }
+  const float threshold = static_cast<float>(config_.corner_quality) *
+                          *std::max_element(cell_max_.begin(), cell_max_.end());
+  struct Candidate {
+    float score;
+    cv::Point2f p;
+    size_t cell;
+  };
+  std::vector<Candidate> candidates;
+  for (size_t c : open) {
+    const cv::Rect r = cell_rect(c);
+    const cv::Mat& eig = strength[c];
+    cv::Mat peaks;
+    cv::dilate(eig, peaks, cv::Mat());  // 3x3 local maxima, as goodFeaturesToTrack
+    for (int y = 0; y < eig.rows; ++y) {
+      const float* e = eig.ptr<float>(y);
+      const float* d = peaks.ptr<float>(y);
+      const uint8_t* m = mask.ptr<uint8_t>(r.y + y) + r.x;
+      for (int x = 0; x < eig.cols; ++x) {
+        if (e[x] > threshold && e[x] == d[x] && m[x]) {
+          const cv::Point2f p(static_cast<float>(r.x + x), static_cast<float>(r.y + y));
+          candidates.push_back({e[x], p, c});
+        }
+      }
+    }
+  }
+  // The strongest first, min_distance apart, as goodFeaturesToTrack does on the whole image:
+  // the grid decides where to look, not a share per cell (a per-cell share put weak corners of
+  // poor cells before strong ones and shortened the tracks on the simulator: README).
+  std::sort(candidates.begin(), candidates.end(),
+            [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  // Corners in the border strip take their place and keep others min_distance away but are not
+  // kept (as goodFeaturesToTrack's output filtered by Inside() did): admitting the next corner
+  // instead put short-lived features at the image edge (tracks 6.1 -> 5.2 frames on tiny S1_01).
+  std::vector<Candidate> chosen;
+  int taken = 0;
+  for (const Candidate& k : candidates) {
+    if (taken >= wanted) break;
+    if (!mask.at<uint8_t>(cv::Point(k.p))) continue;  // too close to a feature or one chosen
+    cv::circle(mask, k.p, radius, cv::Scalar(0), cv::FILLED);
+    ++taken;
+    if (Inside(k.p, left)) chosen.push_back(k);
+  }
+  for (size_t c : open) cell_kept_[c] = count[c];
+  for (const Candidate& k : chosen) ++cell_kept_[k.cell];
+  for (const Candidate& k : chosen) {
+    points_.push_back(k.p);
     ids_.push_back(next_id_++);
     counts_.push_back(1);
     disparity_.push_back(-1.f);
     ++stats_.detected;
   }
+  stats_.cells_searched = static_cast<int>(open.size());
 }
 
 void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
@@ -131,6 +224,11 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   std::vector<float> last_disparity = disparity_;
   disparity_.assign(n, -1.f);
   if (n == 0) return;
+  // Unmatched tracks (no disparity, seen before) share the full-search budget.
+  size_t unmatched = 0;
+  for (size_t i = 0; i < n; ++i) unmatched += last_disparity[i] < 0 && counts_[i] > 1 ? 1 : 0;
+  const size_t budget = static_cast<size_t>(std::max(1, config_.stereo_full_searches));
+  const uint64_t retry_period = (unmatched + budget - 1) / budget;
   // 1. Coarse disparity by ZNCC along the row (large baselines defeat plain KLT).
   constexpr int kHalf = 5;
   std::vector<cv::Point2f> guess(n), candidates;
@@ -141,11 +239,18 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     const int v = static_cast<int>(std::lround(points_[i].y));
     if (u - kHalf < 0 || v - kHalf < 0 || u + kHalf >= left.cols || v + kHalf >= left.rows)
       continue;
-    // Search all disparities for new features, a band around the last one for tracked ones.
+    // A band around the last disparity for matched features; all disparities for new ones and
+    // for unmatched tracks, the latter at most stereo_full_searches per frame (staggered by id
+    // when there are more): on real frames about half of the features find no right match
+    // (occluded, outside the right image, weak) and searching them all on every frame was
+    // most of the front end's cost.
     int d_min = 0, d_max = static_cast<int>(config_.max_disparity_px);
     if (last_disparity[i] >= 0) {
       d_min = std::max(0, static_cast<int>(last_disparity[i]) - 12);
       d_max = std::min(d_max, static_cast<int>(last_disparity[i]) + 12);
+    } else if (counts_[i] > 1 && retry_period > 1 && (frame_ + ids_[i]) % retry_period != 0) {
+      ++stats_.stereo_deferred;
+      continue;
     }
     const int x0 = std::max(0, u - d_max - kHalf);
     const int x1 = u - d_min + kHalf + 1;
@@ -175,11 +280,13 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
   std::vector<unsigned char> status, status_back;
   std::vector<float> err;
   const cv::Size window(config_.klt_window_px, config_.klt_window_px);
+  const cv::TermCriteria stop(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                              config_.stereo_klt_iterations, 0.01);
   cv::calcOpticalFlowPyrLK(left_pyramid_, right_pyramid_, candidates, refined, status, err, window,
-                           1, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
+                           config_.stereo_klt_levels, stop, cv::OPTFLOW_USE_INITIAL_FLOW);
   back = candidates;
   cv::calcOpticalFlowPyrLK(right_pyramid_, left_pyramid_, refined, back, status_back, err, window,
-                           1, {}, cv::OPTFLOW_USE_INITIAL_FLOW);
+                           config_.stereo_klt_levels, stop, cv::OPTFLOW_USE_INITIAL_FLOW);
   // 3. Row and consistency checks.
   for (size_t k = 0; k < index.size(); ++k) {
     const cv::Point2f& l = candidates[k];

@@ -41,6 +41,9 @@ class StereoRectifier {
   EurocCamera rect_[2];
   double baseline_m_ = 0;
   cv::Mat map_x_[2], map_y_[2];  // CV_32FC1: rectified pixel -> input pixel
+  // The same tables in OpenCV's fixed-point form (CV_16SC2 integer pixel + CV_16UC1 1/32-pixel
+  // interpolation index), which remap reads with SIMD: what Rectify uses on every image.
+  cv::Mat map_fixed_[2], map_fraction_[2];
 };
 
 // The rectifier this pair needs, or nullptr if it is already rectified.

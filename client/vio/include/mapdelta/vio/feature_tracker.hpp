@@ -3,7 +3,8 @@
 // the VIO's own sources include this header).
 //   1. track last frame's left features with pyramidal KLT, keep those passing a
 //      forward-backward check, then reject outliers with a fundamental-matrix RANSAC;
-//   2. detect new Shi-Tomasi corners at least `min_distance_px` from every kept feature;
+//   2. detect new Shi-Tomasi corners at least `min_distance_px` from every kept feature, only in
+//      the grid cells holding fewer than their share of features;
 //   3. match each left feature in the right image: ZNCC search along the same row for the
 //      coarse disparity, KLT refinement, row check (rectified: |v_r - v_l| small) and a
 //      right-to-left KLT consistency check.
@@ -27,6 +28,8 @@ struct TrackedFeature {
 
 struct TrackerStats {
   int tracked = 0, rejected_fb = 0, rejected_ransac = 0, detected = 0, stereo = 0;
+  int cells_searched = 0;   // grid cells where corners were looked for
+  int stereo_deferred = 0;  // unmatched tracks whose full stereo search waits (retry schedule)
 };
 
 class FeatureTracker {
@@ -54,6 +57,11 @@ class FeatureTracker {
   std::vector<cv::Point2f> right_points_;
   std::vector<unsigned char> has_right_;
   uint64_t next_id_ = 1;
+  uint64_t frame_ = 0;  // frames tracked, for the stereo retry schedule
+  // Per grid cell, from its last search: the strongest corner away from features, and the
+  // features it then held (-1: not searched yet).
+  std::vector<float> cell_max_;
+  std::vector<int> cell_kept_;
 };
 
 }  // namespace mapdelta::vio
