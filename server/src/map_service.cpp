@@ -15,6 +15,7 @@
 #include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
+#include "observed_tile_cache.hpp"
 #include "tile_work.hpp"
 
 namespace mapdelta::server {
@@ -64,6 +65,7 @@ MapService::MapService(ServerConfig config, std::unique_ptr<Storage> storage)
   ValidateServerConfig(config_);
   // Every publish of tile changes from here on keeps the change clusters' lifecycle.
   storage_->tiles().SetClusterLifecycle(std::make_shared<ChangeLifecycle>(config_.lifecycle));
+  observed_cache_ = std::make_unique<ObservedTileCache>(config_.http.observed_cache_bytes);
 }
 
 MapService::~MapService() { StopJobWorker(); }
@@ -246,7 +248,9 @@ Json MapService::Health() {
   return j;
 }
 
-std::string MapService::RenderMetrics() { return metrics_.Render(storage_->jobs().CountByState()); }
+std::string MapService::RenderMetrics() {
+  return metrics_.Render(storage_->jobs().CountByState(), observed_cache_->Stats());
+}
 
 // ---------------------------------------------------------------- job worker
 

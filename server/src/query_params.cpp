@@ -8,6 +8,13 @@
 
 namespace mapdelta::server {
 
+TileId ParseTile(const std::string& text) {
+  auto tile = TileId::FromString(text);
+  if (!tile)
+    throw ApiError(ApiCode::kInvalidArgument, "tile id '" + text + "' is not of the form ix_iy");
+  return *tile;
+}
+
 Rect TileRange(const TileGrid& grid, const MapFrame& frame, double min_x, double min_y,
                double max_x, double max_y) {
   const TileId a = grid.TileOf(min_x - frame.origin.x(), min_y - frame.origin.y());

@@ -15,6 +15,8 @@
 
 namespace mapdelta::server {
 
+// A tile id of a path ("ix_iy").
+TileId ParseTile(const std::string& text);
 // "min_x,min_y,max_x,max_y" in user coordinates, min <= max, at most 1000 km a side.
 std::vector<double> ParseBbox(const std::string& text);
 // Tile index range of a rectangle in user coordinates, as a Rect of indices (what storage
