@@ -1,14 +1,16 @@
 // MapService: a tile's observed octree (GET /v1/observed/tiles/{t}.bt), merged from its
 // sessions' octrees and kept per tile state in the ObservedTileCache.
 #include <cstdio>
+#include <optional>
+#include <set>
 
+#include "blob_codec.hpp"
 #include "mapdelta/common/number_text.hpp"
 #include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/server/map_service.hpp"
 #include "observed_crop.hpp"
 #include "observed_tile_cache.hpp"
 #include "query_params.hpp"
-#include "tile_classifier.hpp"
 
 namespace mapdelta::server {
 namespace {
@@ -33,6 +35,26 @@ std::string ETagOf(const std::string& key) {
   return etag;
 }
 
+// The sessions' octrees merged in id order, as ObservedCache::Merged merges them (so the same
+// bytes), but one decoded session at a time: the job's cache keeps every session it decoded for
+// the job's tiles; a request has no use for them after its merge, and with 80 sessions holding
+// them all made each request's peak memory ~80 octrees instead of ~2.
+std::string MergedOctree(Storage& storage, const std::set<int64_t>& sessions, double resolution_m) {
+  auto decode = [&storage](int64_t s) -> std::optional<ObservedArea> {
+    const auto blob = storage.sessions().GetObserved(s);
+    if (!blob) return std::nullopt;
+    return ObservedArea::DeserializeBinary(DecodeObserved(*blob));
+  };
+  if (sessions.size() == 1) {  // nothing to merge: the session's own octree
+    if (auto area = decode(*sessions.begin())) return area->SerializeBinary();
+  }
+  ObservedArea merged(resolution_m);
+  for (int64_t s : sessions) {
+    if (auto area = decode(s)) merged.Merge(*area);
+  }
+  return merged.SerializeBinary();
+}
+
 }  // namespace
 
 FilePayload MapService::GetObservedTile(const std::string& tile_text,
@@ -49,12 +71,11 @@ FilePayload MapService::GetObservedTile(const std::string& tile_text,
   p.prior_version = storage_->priors().LatestVersion().value_or(0);
   if (client_has && client_has(p.etag)) return p;  // 304: no merge, no bytes
   const std::shared_ptr<const std::string> bt = observed_cache_->Get(key, [&] {
-    ObservedCache sessions(*storage_);
-    const ObservedArea& merged =
-        sessions.Merged(state->sessions, config_.pipeline.octree_resolution_m);
     // The merged octree covers the sessions' whole drives: cut it to this tile.
     const AxisAlignedBox b = TileGrid(config_.storage.tile_size_m).Bounds(tile);
-    return CropOctreeXY(merged.SerializeBinary(), b.min.x(), b.min.y(), b.max.x(), b.max.y());
+    return CropOctreeXY(
+        MergedOctree(*storage_, state->sessions, config_.pipeline.octree_resolution_m), b.min.x(),
+        b.min.y(), b.max.x(), b.max.y());
   });
   p.bytes.assign(bt->begin(), bt->end());
   return p;
