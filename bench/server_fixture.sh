@@ -4,6 +4,7 @@
 server_bin() { echo "$build/server/mapdelta-server"; }
 
 # Writes $dir/server.yaml and $dir/prior.pcd, creates the tokens and imports the prior.
+# MAPDELTA_SERVER_YAML: more top-level config sections (e.g. "http:\n  observed_cache_bytes: 0").
 md_server_setup() {
   mkdir -p "$dir"
   cat >"$dir/server.yaml" <<YAML
@@ -13,6 +14,7 @@ storage:
 log:
   level: ${MD_LOG_LEVEL:-warn}
   format: json
+${MAPDELTA_SERVER_YAML:-}
 YAML
   local role
   for role in vehicle reader admin; do
