@@ -9,6 +9,7 @@
 #include "auth.hpp"
 #include "blob_codec.hpp"
 #include "change_lifecycle.hpp"
+#include "heap_trim.hpp"
 #include "job_lease.hpp"
 #include "jobs.hpp"
 #include "keyframe_cloud.hpp"
@@ -279,6 +280,9 @@ void MapService::WorkerLoop() {
     } catch (const std::exception& e) {
       MD_LOG(kError, "job worker: " << e.what());
     }
+    // A job's transient memory (decoded session octrees, clouds) is freed by now; without this
+    // malloc keeps it and RSS grows with every commit (heap_trim.hpp).
+    if (ran) ReturnFreedHeapToSystem();
     if (!ran) {
       std::unique_lock lock(wake_mutex_);
       wake_.wait_for(lock, std::chrono::milliseconds(250));
