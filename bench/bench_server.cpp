@@ -9,6 +9,7 @@
 // Commit baseline (--no-baseline skips it): the session-1 structure, i.e. every PNG decoded
 // twice (the clouds stored at upload are made stale, so the commit recomputes them) and the
 // octree pass as two halves on two threads (chunk = N/2), merged.
+// Coverage: the commit's coverage stage against the whole commit, and the bytes its rows store.
 // Usage: bench_server --help
 #include <sys/resource.h>
 
@@ -241,6 +242,31 @@ std::optional<Commit> RunBaselineCommit(const Session& session, const std::strin
   return RunCommit(service, id);
 }
 
+// What coverage (issue #20 item 4) adds to a commit: the job's coverage stage (which runs alone,
+// between aggregation and classification, so the commit without it takes total - coverage),
+// and the stored bytes of its rows per prior point they index.
+void PrintCoverage(mds::MapService& service, const Commit& fast, int keyframes) {
+  const double coverage_s = fast.result["seconds"].value("coverage", 0.0);
+  const double total_s = fast.result["seconds"].value("total", 0.0);
+  int64_t rows = 0, bytes = 0, points = 0, observed = 0;
+  const mds::Rect all{-1e9, -1e9, 1e9, 1e9};
+  for (const mds::CoverageRecord& r : service.storage().coverage().List(all, 0, true)) {
+    ++rows;
+    bytes += static_cast<int64_t>(r.bits.size());
+    points += r.prior_points;
+    observed += r.observed_points;
+  }
+  std::printf(
+      "coverage: %.3f s of the %.3f s commit (%.1f%%; without it %.3f s, ratio %.3f), %.3f ms per "
+      "keyframe; %lld rows, %lld bytes of bitsets over %lld prior points (%.3f bytes / %.2f bits "
+      "per prior point per session), %lld observed\n",
+      coverage_s, total_s, 100 * coverage_s / total_s, total_s - coverage_s,
+      total_s / (total_s - coverage_s), 1000 * coverage_s / keyframes, static_cast<long long>(rows),
+      static_cast<long long>(bytes), static_cast<long long>(points),
+      points ? static_cast<double>(bytes) / points : 0.0, points ? 8.0 * bytes / points : 0.0,
+      static_cast<long long>(observed));
+}
+
 void PrintReport(const BenchOptions& o, const Session& session, std::optional<double> http_s,
                  double direct_s, const Commit& fast, const std::optional<Commit>& base) {
   const int keyframes = o.keyframes;
@@ -323,6 +349,7 @@ int main(int argc, char** argv) {
     }
   }
   PrintReport(options, session, http_s, direct_s, *fast, base);
+  PrintCoverage(*direct_service, *fast, options.keyframes);
   std::filesystem::remove_all(dir);
   return 0;
 }

@@ -29,6 +29,9 @@ usage: bash tools/reproduce-paper.sh --out DIR [options]
   --crowd-sequence S  sequence(s) the uploads drive, comma-separated, one scene (default S1_01;
                       S1_01,S1_02: upload i drives the i-th in turn), noise seed i, vehicle i
   --crowd-noise N     noise of the crowd uploads (default small)
+  --crowd-replay DIR  upload the keyframes of an earlier crowd run (DIR = its --out) instead of
+                      running the client again: the same N sessions through this build's server,
+                      in minutes (for comparing server rules); reuses DIR's merged detections
   --data DIR          dataset cache (clean renders, renoised trials; default OUT/data)
   --dataset N:K=DIR   use DIR (a generated dataset) as noise N, trial K (repeatable), e.g.
                       small:1=/work/data/paper-small-s1
@@ -48,7 +51,7 @@ EOF2
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 out="" preset=paper sequences="" noises=small,big trials=5 city_seed=1 thf_list=5,10,15,20,25,30
-bounds=128,0 thf_point=20 free_space="" crowd=1,2,4,8 crowd_preset=tiny crowd_seq=S1_01 crowd_noise=small
+bounds=128,0 thf_point=20 free_space="" crowd=1,2,4,8 crowd_preset=tiny crowd_seq=S1_01 crowd_noise=small crowd_replay=""
 sweep_trials="" data="" build_dir=build sim_override="" keep_data=0 nice_cmd="nice -n 10" report_only=0
 declare -A dataset_override=()
 while [ $# -gt 0 ]; do
@@ -68,6 +71,7 @@ while [ $# -gt 0 ]; do
     --crowd-preset) crowd_preset=$2; shift 2 ;;
     --crowd-sequence) crowd_seq=$2; shift 2 ;;
     --crowd-noise) crowd_noise=$2; shift 2 ;;
+    --crowd-replay) crowd_replay=$(cd "$2" && pwd) || exit 2; shift 2 ;;
     --data) data=$2; shift 2 ;;
     --dataset)
       [[ "$2" =~ ^([a-z]+):([0-9]+)=(.+)$ ]] || { echo "reproduce-paper: --dataset '$2': expected NOISE:TRIAL=DIR" >&2; exit 2; }
@@ -141,13 +145,13 @@ jq -n --arg preset "$preset" --arg sequences "$sequences" --arg noises "$noises"
   --argjson sweep_trials "$sweep_trials" --arg free_space "$free_space" \
   --argjson seed "$city_seed" --arg thf "$thf_list" --arg bounds "$bounds" --argjson thf_point "$thf_point" \
   --arg crowd "$crowd" --arg crowd_preset "$crowd_preset" --arg crowd_seq "$crowd_seq" --arg crowd_noise "$crowd_noise" \
-  --arg commit "$run_commit" \
+  --arg crowd_replay "$crowd_replay" --arg commit "$run_commit" \
   --arg started "$(date -u +%Y-%m-%dT%H:%M:%SZ)" --arg cpu "$run_cpu" \
   --argjson nproc "$(nproc)" --arg load "$(cut -d' ' -f1-3 /proc/loadavg)" \
   '{preset: $preset, sequences: ($sequences | split(",")), noises: ($noises | split(",")), trials: $trials,
     sweep_trials: $sweep_trials,
     city_seed: $seed, th_f_m: ($thf | split(",") | map(tonumber)), free_ray_bounds_px: ($bounds | split(",") | map(tonumber)),
-    th_f_point_m: $thf_point, free_space: (if $free_space == "" then "default" else $free_space end), crowd: {uploads: $crowd, preset: $crowd_preset, sequence: $crowd_seq, noise: $crowd_noise},
+    th_f_point_m: $thf_point, free_space: (if $free_space == "" then "default" else $free_space end), crowd: {uploads: $crowd, preset: $crowd_preset, sequence: $crowd_seq, noise: $crowd_noise, replay_of: (if $crowd_replay == "" then null else $crowd_replay end)},
     commit: $commit, started: $started, machine: {cpu: $cpu, nproc: $nproc, loadavg_at_start: $load}}' >"$out/params.json.new"
 [ "$report_only" = 1 ] && [ -f "$out/params.json" ] || mv "$out/params.json.new" "$out/params.json"
 rm -f "$out/params.json.new"

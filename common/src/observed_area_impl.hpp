@@ -31,10 +31,16 @@ struct PriorSurfaces::Impl {
 };
 
 namespace detail {
-// Checks an OctoMap binary (.bt) stream completely: header lines, resolution, and that the
-// node bit stream is well formed, no deeper than 16 levels, has exactly `size` nodes and ends
-// where the bytes end. Returns the resolution; throws Error(kParse) prefixed with `what`.
-double ValidateOctomapBinary(std::string_view bytes, const std::string& what);
+struct OctomapStream {
+  double resolution_m = 0;
+  size_t data_offset = 0;  // where the node data starts, after the header's 'data' line
+  bool full = false;       // .ot (log-odds per node) rather than .bt
+  bool empty = false;      // size 0: no node data
+};
+// Checks an OctoMap binary (.bt) or full (.ot) stream completely: header lines, resolution, and
+// that the node data is well formed, no deeper than 16 levels, has exactly `size` nodes and ends
+// where the bytes end (.ot: every log-odds finite). Throws Error(kParse) prefixed with `what`.
+OctomapStream ValidateOctomapStream(std::string_view bytes, const std::string& what);
 }  // namespace detail
 
 }  // namespace mapdelta

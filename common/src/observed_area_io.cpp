@@ -1,7 +1,9 @@
-// ObservedArea persistence: OctoMap's .bt format, validated in full before OctoMap parses it
-// (OctoMap's reader trusts the stream: a truncated or forged one can make it allocate nodes
-// from uninitialised bytes).
+// ObservedArea persistence: OctoMap's .bt format (free / occupied per voxel) and its .ot format
+// (every node's log-odds), each validated in full before OctoMap parses it (OctoMap's readers
+// trust the stream: a truncated or forged one can make them allocate nodes from uninitialised
+// bytes).
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <sstream>
@@ -13,7 +15,8 @@ namespace mapdelta {
 namespace detail {
 namespace {
 
-constexpr std::string_view kHeader = "# Octomap OcTree binary file";
+constexpr std::string_view kBinaryHeader = "# Octomap OcTree binary file";
+constexpr std::string_view kFullHeader = "# Octomap OcTree file";
 constexpr int kTreeDepth = 16;
 
 struct BitStream {
@@ -21,6 +24,33 @@ struct BitStream {
   size_t pos = 0;
   uint64_t nodes = 1;  // the root
 };
+
+// Mirrors OcTreeBaseImpl::readNodesRecurs with OcTreeNode's data: per node its log-odds (a
+// float) and one byte with a bit per allocated child, children following recursively.
+bool WalkFullNode(BitStream* s, int depth, std::string* problem) {
+  if (s->pos + sizeof(float) + 1 > s->data.size()) {
+    *problem = "node data ends early";
+    return false;
+  }
+  float log_odds = 0;
+  std::memcpy(&log_odds, s->data.data() + s->pos, sizeof log_odds);
+  if (!std::isfinite(log_odds)) {
+    *problem = "a node's log-odds is not finite";
+    return false;
+  }
+  const auto children = static_cast<unsigned char>(s->data[s->pos + sizeof(float)]);
+  s->pos += sizeof(float) + 1;
+  for (int child = 0; child < 8; ++child) {
+    if (!(children & (1u << child))) continue;
+    ++s->nodes;
+    if (depth + 1 > kTreeDepth) {  // leaves are at depth 16
+      *problem = "node below the deepest level";
+      return false;
+    }
+    if (!WalkFullNode(s, depth + 1, problem)) return false;
+  }
+  return true;
+}
 
 // Mirrors OccupancyOcTreeBase::readBinaryNode: two bytes per node, two bits per child
 // (00 unknown, 01 occupied leaf, 10 free leaf, 11 inner node followed recursively).
@@ -49,12 +79,17 @@ bool WalkNode(BitStream* s, int depth, std::string* problem) {
 
 }  // namespace
 
-double ValidateOctomapBinary(std::string_view bytes, const std::string& what) {
+OctomapStream ValidateOctomapStream(std::string_view bytes, const std::string& what) {
+  const auto first_line = bytes.substr(0, bytes.find('\n'));
+  const bool full = first_line == kFullHeader;
   const auto fail = [&](const std::string& problem) {
-    return Error(ErrorCode::kParse, what + ": not a valid OctoMap binary (.bt) tree: " + problem);
+    return Error(ErrorCode::kParse, what + ": not a valid OctoMap " +
+                                        (full ? "(.ot)" : "binary (.bt)") + " tree: " + problem);
   };
-  if (bytes.substr(0, kHeader.size()) != kHeader)
-    throw fail("first line must be '" + std::string(kHeader) + "'");
+  if (!full && bytes.substr(0, kBinaryHeader.size()) != kBinaryHeader) {
+    throw fail("first line must be '" + std::string(kBinaryHeader) + "' or '" +
+               std::string(kFullHeader) + "'");
+  }
   size_t pos = 0;
   std::string id;
   double resolution = 0;
@@ -84,18 +119,20 @@ double ValidateOctomapBinary(std::string_view bytes, const std::string& what) {
   if (!(std::isfinite(resolution) && resolution >= 1e-3)) throw fail("res must be >= 0.001");
   if (size < 0) throw fail("missing 'size'");
   BitStream stream{bytes.substr(pos)};
+  const OctomapStream result{resolution, pos, full, size == 0};
   if (size == 0) {
     if (!stream.data.empty()) throw fail("size 0 but node data follows");
-    return resolution;
+    return result;
   }
   std::string problem;
-  if (!WalkNode(&stream, 0, &problem)) throw fail(problem);
+  if (!(full ? WalkFullNode(&stream, 0, &problem) : WalkNode(&stream, 0, &problem)))
+    throw fail(problem);
   if (stream.pos != stream.data.size()) throw fail("trailing bytes after the node data");
   if (stream.nodes != static_cast<uint64_t>(size)) {
     throw fail("header says " + std::to_string(size) + " nodes, data has " +
                std::to_string(stream.nodes));
   }
-  return resolution;
+  return result;
 }
 
 }  // namespace detail
@@ -107,11 +144,23 @@ std::string ObservedArea::SerializeBinary() const {
   return out.str();
 }
 
+std::string ObservedArea::SerializeEvidence() const {
+  std::ostringstream out;
+  if (!impl_->tree.write(out)) throw Error(ErrorCode::kInternal, "octree: write failed");
+  return out.str();
+}
+
 ObservedArea ObservedArea::DeserializeBinary(const std::string& bytes) {
-  const double resolution = detail::ValidateOctomapBinary(bytes, "octree bytes");
-  ObservedArea area(resolution);
+  const detail::OctomapStream stream = detail::ValidateOctomapStream(bytes, "octree bytes");
+  ObservedArea area(stream.resolution_m);
   std::istringstream in(bytes);
-  if (!area.impl_->tree.readBinary(in)) {
+  if (stream.full) {
+    // The header is checked above; OcTree::readData reads the nodes after it.
+    in.seekg(static_cast<std::streamoff>(stream.data_offset));
+    if (!stream.empty && !area.impl_->tree.readData(in)) {
+      throw Error(ErrorCode::kParse, "octree bytes: OctoMap rejected the tree");
+    }
+  } else if (!area.impl_->tree.readBinary(in)) {
     throw Error(ErrorCode::kParse, "octree bytes: OctoMap rejected the tree");
   }
   return area;

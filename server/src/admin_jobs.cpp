@@ -8,6 +8,7 @@
 #include "change_clusters.hpp"
 #include "cluster_voxels.hpp"
 #include "commit_passes.hpp"
+#include "coverage.hpp"
 #include "jobs.hpp"
 #include "mapdelta/common/log.hpp"
 #include "tile_classifier.hpp"
@@ -201,6 +202,7 @@ Json RunRefreshJob(JobContext& ctx) {
     for (const Json& t : result["tiles"])
       refreshed.push_back(*TileId::FromString(t["tile"].get<std::string>()));
     ReclassifyAround(ctx, grid, refreshed, v.version, cc);
+    result["coverage"] = CoverageJson(RecomputeCoverage(ctx.storage));
     result["resumed"] = true;
     return result;
   }
@@ -253,6 +255,8 @@ Json RunRefreshJob(JobContext& ctx) {
   std::vector<TileId> refreshed;
   for (const auto& w : writes) refreshed.push_back(w.tile);
   ReclassifyAround(ctx, grid, refreshed, version, cc);
+  // 4. Sessions' coverage of the refreshed tiles, against their new points.
+  result["coverage"] = CoverageJson(RecomputeCoverage(ctx.storage));
   return result;
 }
 

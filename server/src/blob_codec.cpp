@@ -14,7 +14,14 @@ namespace {
 constexpr char kMagic[4] = {'M', 'D', 'B', '1'};
 constexpr uint16_t kFormatVersion = 1;
 constexpr uint64_t kMaxDeflateRatio = 1032;
-enum Kind : uint8_t { kPoints = 1, kAggregate = 2, kChanges = 3, kObserved = 4, kVoxelKeys = 5 };
+enum Kind : uint8_t {
+  kPoints = 1,
+  kAggregate = 2,
+  kChanges = 3,
+  kObserved = 4,
+  kVoxelKeys = 5,
+  kPointBits = 6
+};
 
 class Writer {
  public:
@@ -240,6 +247,28 @@ std::string DecodeObserved(const Bytes& blob) {
   }
   const Bytes raw = Open(kObserved, blob);
   return std::string(raw.begin(), raw.end());
+}
+
+}  // namespace mapdelta::server
+
+namespace mapdelta::server {
+
+Bytes EncodePointBits(const PointBits& bits) {
+  Writer w;
+  w.Put(static_cast<uint64_t>(bits.size()));
+  for (uint64_t word : bits.words()) w.Put(word);
+  return Seal(kPointBits, w.buf());
+}
+
+PointBits DecodePointBits(const Bytes& blob) {
+  const Bytes raw = Open(kPointBits, blob);
+  Reader r(raw);
+  const auto n = r.Get<uint64_t>();
+  if (n > uint64_t{8} * raw.size()) throw Error(ErrorCode::kParse, "point bits blob is truncated");
+  std::vector<uint64_t> words((n + 63) / 64);
+  for (uint64_t& word : words) word = r.Get<uint64_t>();
+  if (!r.done()) throw Error(ErrorCode::kParse, "point bits blob has trailing bytes");
+  return PointBits::FromWords(static_cast<size_t>(n), std::move(words));
 }
 
 }  // namespace mapdelta::server

@@ -1,7 +1,8 @@
 #pragma once
 // Versioned, checksummed, zlib-compressed binary encodings of what the server stores: per tile
 // prior points, the aggregated voxel cloud with per-voxel session support and classified
-// changes with their evidence, a change cluster's voxel keys; per session the observed octree.
+// changes with their evidence, a change cluster's voxel keys; per session the observed octree;
+// per (tile, session) the prior points observed.
 // Layout: magic "MDB1", kind (u8), format version (u16), raw size (u64), CRC-32 of the raw payload
 // (u32), then the zlib stream.
 #include <array>
@@ -12,6 +13,7 @@
 
 #include "mapdelta/common/point_cloud.hpp"
 #include "mapdelta/server/storage.hpp"
+#include "point_bits.hpp"
 
 namespace mapdelta::server {
 
@@ -43,11 +45,16 @@ std::vector<ChangePoint> DecodeChanges(const Bytes& blob);
 // A change cluster's voxel keys (sorted; change_lifecycle.cpp).
 Bytes EncodeVoxelKeys(const std::vector<VoxelKey>& keys);
 std::vector<VoxelKey> DecodeVoxelKeys(const Bytes& blob);
-// A session's observed octree: OctoMap's binary stream (ObservedArea::SerializeBinary).
+// A session's observed octree: OctoMap's .ot stream with every voxel's log-odds
+// (ObservedArea::SerializeEvidence; the per-session free-space evidence of tile_classifier.hpp
+// needs it), or the .bt stream (free/occupied only) of databases written before.
 Bytes EncodeObserved(const std::string& octree_binary);
 // Databases written before octrees went through the codec hold the bare OctoMap stream: that is
 // read as it is (recognised by OctoMap's own first line); any other blob without the mapdelta
 // header is an error.
 std::string DecodeObserved(const Bytes& blob);
+// Which prior points of a tile a session observed (coverage.hpp).
+Bytes EncodePointBits(const PointBits& bits);
+PointBits DecodePointBits(const Bytes& blob);
 
 }  // namespace mapdelta::server

@@ -4,10 +4,11 @@
 //   3. the session's observed octree (hits < th_d, free rays of th_f, bounded by
 //      free_ray_bound_px, under pipeline.free_space's rule), with the corrected poses
 //   4. per touched tile, one transaction: add the session's voxels (support) and membership
-//   5. reclassify touched tiles and their neighbours (paper Alg. 1 + 2 on the aggregate)
+//   5. coverage: per touched tile, which prior points the session observed (coverage.hpp)
+//   6. reclassify touched tiles and their neighbours (paper Alg. 1 + 2 on the aggregate)
 // Steps 1 and 3 run in parallel over chunks of keyframes (commit_passes.cpp); step 1 reads the
 // clouds stored at upload, so each depth PNG is decoded once per commit. Step 4 writes in one
-// transaction; step 5's tiles are work items any worker may classify (tile_work.hpp), their
+// transaction; step 6's tiles are work items any worker may classify (tile_work.hpp), their
 // results published in one transaction. A cancel request is honoured until step 4 starts; from then
 // on the job completes (a shutdown still pauses it, and it resumes at the next start).
 #include <chrono>
@@ -15,6 +16,7 @@
 #include "api_json.hpp"
 #include "blob_codec.hpp"
 #include "commit_passes.hpp"
+#include "coverage.hpp"
 #include "jobs.hpp"
 #include "localization_quality.hpp"
 #include "mapdelta/common/log.hpp"
@@ -149,7 +151,7 @@ struct Classified {
   Json by = Json::object();  // worker id -> tiles it classified
 };
 
-// Step 5: the touched tiles and their aggregated neighbours as one work item each, classified
+// Step 6: the touched tiles and their aggregated neighbours as one work item each, classified
 // by this and any other worker (tile_work.hpp), published at once.
 Classified ClassifyTouchedTiles(JobContext& ctx, const std::map<TileId, PointCloud>& by_tile,
                                 int64_t prior_version, int64_t session_id,
@@ -214,7 +216,7 @@ Json RunCommitJob(JobContext& ctx) {
   SessionObserved session_observed =
       BuildSessionObserved(ctx, *session, camera, reg.T_correction, 0.2, 0.8);
   ctx.storage.sessions().PutObserved(session_id,
-                                     EncodeObserved(session_observed.area.SerializeBinary()));
+                                     EncodeObserved(session_observed.area.SerializeEvidence()));
   const auto t3 = std::chrono::steady_clock::now();
 
   // 4. Touched tiles: where the session has points, or observed some prior point.
@@ -250,7 +252,16 @@ Json RunCommitJob(JobContext& ctx) {
   ctx.Progress(0.85, "aggregated " + std::to_string(by_tile.size()) + " tiles");
   const auto t4 = std::chrono::steady_clock::now();
 
-  // 5. Reclassify touched tiles and neighbours whose margin saw the new evidence.
+  // 5. Coverage of the touched tiles' prior points at the latest version (idempotent, so a
+  // resumed job writes it again). Every tile where the session observed a prior point is a
+  // touched tile.
+  std::vector<TileId> touched;
+  for (const auto& [tile, points] : by_tile) touched.push_back(tile);
+  const int64_t tiles_covered =
+      WriteSessionCoverage(ctx.storage, *session, session_observed.area, touched);
+  const auto t4c = std::chrono::steady_clock::now();
+
+  // 6. Reclassify touched tiles and neighbours whose margin saw the new evidence.
   const Classified classified = ClassifyTouchedTiles(ctx, by_tile, prior_version.value_or(0),
                                                      session_id, std::move(session_observed.area));
   ctx.storage.sessions().Finish(session_id, SessionState::kCommitted, reg.report.dump(), NowMs());
@@ -261,6 +272,7 @@ Json RunCommitJob(JobContext& ctx) {
               {"session_points", cloud.size()},
               {"tiles_aggregated", by_tile.size()},
               {"tiles_classified", classified.tiles},
+              {"tiles_covered", tiles_covered},
               {"tiles_classified_by", classified.by},
               {"keyframe_clouds_recomputed", session_cloud.recomputed},
               {"new_points", classified.new_points},
@@ -273,7 +285,8 @@ Json RunCommitJob(JobContext& ctx) {
                 {"registration", secs(t1, t2)},
                 {"observed_area", secs(t2, t3)},
                 {"aggregation", secs(t3, t4)},
-                {"classification", secs(t4, t5)},
+                {"coverage", secs(t4, t4c)},
+                {"classification", secs(t4c, t5)},
                 {"total", secs(t0, t5)}}}};
 }
 

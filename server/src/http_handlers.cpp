@@ -388,6 +388,30 @@ void RegisterClusterRoutes(httplib::Server& s, MapService& svc) {
   }
 }
 
+// Coverage and freshness (issue #20 item 4): per prior tile, its points observed lately.
+void RegisterCoverageRoutes(httplib::Server& s, MapService& svc) {
+  constexpr int64_t kDefaultDays = 30;
+  s.Get("/v1/coverage/tiles",
+        Wrap(svc, "/v1/coverage/tiles", {"bbox", "days", "page", "page_size"},
+             [&svc](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {R, A});
+               const auto bbox = Query(req, "bbox");
+               if (!bbox)
+                 throw ApiError(ApiCode::kInvalidArgument, "query parameter 'bbox' is required");
+               WriteJson(res, 200,
+                         svc.ListCoverageTiles(*bbox, QueryInt(req, "days", kDefaultDays),
+                                               QueryInt(req, "page", 1),
+                                               QueryInt(req, "page_size", 100)));
+             }));
+  s.Get(R"(/v1/coverage/tiles/([-0-9_]{3,24}))",
+        Wrap(svc, "/v1/coverage/tiles/{tile}", {"days"},
+             [&svc](const Req& req, Res& res, std::string& role) {
+               Auth(svc, req, role, {R, A});
+               WriteJson(res, 200,
+                         svc.GetTileCoverage(req.matches[1], QueryInt(req, "days", kDefaultDays)));
+             }));
+}
+
 void RegisterAdminRoutes(httplib::Server& s, MapService& svc) {
   const int64_t json_limit = svc.config().http.max_body_bytes;
   const int64_t prior_limit = svc.config().http.max_prior_bytes;
@@ -452,6 +476,7 @@ void RegisterRoutes(httplib::Server& s, MapService& svc) {
   RegisterVehicleRoutes(s, svc);
   RegisterMapRoutes(s, svc);
   RegisterClusterRoutes(s, svc);
+  RegisterCoverageRoutes(s, svc);
   RegisterAdminRoutes(s, svc);
 }
 

@@ -8,6 +8,7 @@
 #include "api_json.hpp"
 #include "autoware_map.hpp"
 #include "blob_codec.hpp"
+#include "coverage.hpp"
 #include "mapdelta/common/cloud_io.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
@@ -160,13 +161,17 @@ Json MapService::ImportPriorFile(const std::string& path, const std::string& not
                                  << tiles.size() << " tiles (" << dropped
                                  << " non-finite dropped), frame " << Describe(frame)
                                  << (chosen ? " (origin chosen from the cloud)" : ""));
-  return Json{{"prior_version", version},
-              {"points", cloud.size()},
-              {"tiles", tiles.size()},
-              {"dropped_non_finite", dropped},
-              {"tile_size_m", config_.storage.tile_size_m},
-              {"frame", FrameJson(frame)},
-              {"origin_chosen", chosen}};
+  // Sessions' coverage of the replaced tiles, against the new points.
+  const CoverageRecomputed coverage = RecomputeCoverage(*storage_);
+  Json out{{"prior_version", version},
+           {"points", cloud.size()},
+           {"tiles", tiles.size()},
+           {"dropped_non_finite", dropped},
+           {"tile_size_m", config_.storage.tile_size_m},
+           {"frame", FrameJson(frame)},
+           {"origin_chosen", chosen}};
+  out["coverage_rows_recomputed"] = coverage.rows;
+  return out;
 }
 
 Json MapService::GetMap() {

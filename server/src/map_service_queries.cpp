@@ -66,13 +66,6 @@ FilePayload CloudPayload(const Cloud& cloud, const std::string& format, const Ma
   return p;
 }
 
-// A tile's [min_x, min_y, max_x, max_y] in user coordinates.
-Json UserBounds(const TileGrid& grid, const MapFrame& frame, const TileId& tile) {
-  const AxisAlignedBox b = grid.Bounds(tile);
-  const Eigen::Vector3d lo = UserPoint(frame, b.min), hi = UserPoint(frame, b.max);
-  return {lo.x(), lo.y(), hi.x(), hi.y()};
-}
-
 Json JobToJson(const JobRecord& j) {
   Json out{{"job_id", j.id},
            {"type", ToString(j.type)},

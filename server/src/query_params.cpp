@@ -8,6 +8,13 @@
 
 namespace mapdelta::server {
 
+Rect TileRange(const TileGrid& grid, const MapFrame& frame, double min_x, double min_y,
+               double max_x, double max_y) {
+  const TileId a = grid.TileOf(min_x - frame.origin.x(), min_y - frame.origin.y());
+  const TileId b = grid.TileOf(max_x - frame.origin.x(), max_y - frame.origin.y());
+  return Rect{double(a.ix()), double(a.iy()), double(b.ix()), double(b.iy())};
+}
+
 TileId ParseTile(const std::string& text) {
   auto tile = TileId::FromString(text);
   if (!tile)
@@ -15,11 +22,10 @@ TileId ParseTile(const std::string& text) {
   return *tile;
 }
 
-Rect TileRange(const TileGrid& grid, const MapFrame& frame, double min_x, double min_y,
-               double max_x, double max_y) {
-  const TileId a = grid.TileOf(min_x - frame.origin.x(), min_y - frame.origin.y());
-  const TileId b = grid.TileOf(max_x - frame.origin.x(), max_y - frame.origin.y());
-  return Rect{double(a.ix()), double(a.iy()), double(b.ix()), double(b.iy())};
+nlohmann::json UserBounds(const TileGrid& grid, const MapFrame& frame, const TileId& tile) {
+  const AxisAlignedBox b = grid.Bounds(tile);
+  const Eigen::Vector3d lo = UserPoint(frame, b.min), hi = UserPoint(frame, b.max);
+  return {lo.x(), lo.y(), hi.x(), hi.y()};
 }
 
 std::vector<double> ParseBbox(const std::string& text) {

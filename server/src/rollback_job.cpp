@@ -2,6 +2,7 @@
 #include <limits>
 
 #include "api_json.hpp"
+#include "coverage.hpp"
 #include "jobs.hpp"
 #include "mapdelta/common/log.hpp"
 #include "rollback_clusters.hpp"
@@ -57,6 +58,7 @@ Json RunRollbackJob(JobContext& ctx) {
     return Json{{"prior_version", written->version},
                 {"copy_of", target},
                 {"resumed", true},
+                {"coverage", CoverageJson(RecomputeCoverage(ctx.storage))},
                 {"clusters", CountsJson(counts)}};
   }
   const std::optional<int64_t> latest = priors.LatestVersion();
@@ -88,11 +90,15 @@ Json RunRollbackJob(JobContext& ctx) {
   // 3. The clusters follow the map: applied exactly when their refresh is in the target.
   const RollbackClusterCounts counts =
       ReconcileClustersWithRollback(ctx.storage, ctx.job.id, target, version, NowMs());
-  return Json{{"prior_version", version},
-              {"copy_of", target},
-              {"parent_version", *latest},
-              {"tiles", tiles.size()},
-              {"clusters", CountsJson(counts)}};
+  // 4. Sessions' coverage against the copied points (every tile has a new row).
+  const CoverageRecomputed coverage = RecomputeCoverage(ctx.storage);
+  Json out{{"prior_version", version},
+           {"copy_of", target},
+           {"parent_version", *latest},
+           {"tiles", tiles.size()},
+           {"clusters", CountsJson(counts)}};
+  out["coverage"] = CoverageJson(coverage);
+  return out;
 }
 
 }  // namespace mapdelta::server

@@ -6,8 +6,8 @@ namespace mapdelta::server {
 
 Storage::Storage(Stores stores) : stores_(std::move(stores)) {
   if (!stores_.tokens || !stores_.priors || !stores_.sessions || !stores_.jobs || !stores_.tiles ||
-      !stores_.clusters) {
-    throw Error(ErrorCode::kInternal, "Storage: a backend left one of its six stores out");
+      !stores_.clusters || !stores_.coverage) {
+    throw Error(ErrorCode::kInternal, "Storage: a backend left one of its seven stores out");
   }
 }
 

@@ -18,6 +18,7 @@ std::unique_ptr<Storage> OpenMemoryStorage() {
   stores.jobs = std::make_unique<MemoryJobStore>(tables);
   stores.tiles = std::make_unique<MemoryTileStore>(tables);
   stores.clusters = std::make_unique<MemoryClusterStore>(tables);
+  stores.coverage = std::make_unique<MemoryCoverageStore>(tables);
   return std::make_unique<Storage>(std::move(stores));
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// In-memory implementation of the stores: plain containers under one mutex shared by the six
+// In-memory implementation of the stores: plain containers under one mutex shared by the seven
 // stores, so a cross-area write (commit + job, cancel + session, refresh + prior) is one
 // critical section. Every write checks everything it could refuse before it changes anything,
 // which is what makes each method atomic without a rollback log.
@@ -51,6 +51,7 @@ struct MemoryTables {
   std::map<std::pair<int64_t, std::string>, RefreshTileWrite> refresh_log;  // (job, tile)
   std::map<std::string, std::string> settings;
   MemoryClusterTables change_clusters;
+  std::map<std::pair<TileId, int64_t>, CoverageRecord> coverage;  // (tile, session): ix, iy, id
 };
 
 // The clusters after publishing these tiles (ReconcileTileClusters on a copy of the tables), or
@@ -185,6 +186,13 @@ class MemoryClusterStore final : public ChangeClusterStore, MemoryArea {
                                         int64_t offset, int64_t* total) override;
   std::optional<ChangeClusterRecord> Transition(int64_t id, const std::vector<ClusterState>& from,
                                                 ClusterTransitionRecord transition) override;
+};
+
+class MemoryCoverageStore final : public CoverageStore, MemoryArea {
+ public:
+  using MemoryArea::MemoryArea;
+  void Put(const std::vector<CoverageRecord>& records) override;
+  std::vector<CoverageRecord> List(const Rect& rect, int64_t since_ms, bool with_bits) override;
 };
 
 }  // namespace mapdelta::server

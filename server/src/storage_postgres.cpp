@@ -72,6 +72,7 @@ std::unique_ptr<Storage> OpenPostgresStorage(const std::string& conninfo, int ma
   stores.jobs = std::make_unique<PostgresJobStore>(shared);
   stores.tiles = std::make_unique<PostgresTileStore>(shared);
   stores.clusters = std::make_unique<PostgresClusterStore>(shared);
+  stores.coverage = std::make_unique<PostgresCoverageStore>(shared);
   return std::make_unique<Storage>(std::move(stores));
 }
 

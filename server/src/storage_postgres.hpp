@@ -1,5 +1,5 @@
 #pragma once
-// PostgreSQL implementation of the stores, for several server processes on one database. The six
+// PostgreSQL implementation of the stores, for several server processes on one database. The seven
 // stores share a pool of connections (a libpq connection serves one thread at a time); every method
 // is one transaction on one connection. Where SQLite relies on its single writer, these take row
 // locks (FOR UPDATE), a transaction-scoped advisory lock (prior version numbers), or skip rows
@@ -117,6 +117,13 @@ class PostgresTileStore final : public TileStore, PostgresArea {
                        int64_t now_ms) override;
   std::optional<std::string> GetSetting(const std::string& key) override;
   void PutSetting(const std::string& key, const std::string& value) override;
+};
+
+class PostgresCoverageStore final : public CoverageStore, PostgresArea {
+ public:
+  using PostgresArea::PostgresArea;
+  void Put(const std::vector<CoverageRecord>& records) override;
+  std::vector<CoverageRecord> List(const Rect& rect, int64_t since_ms, bool with_bits) override;
 };
 
 class PostgresClusterStore final : public ChangeClusterStore, PostgresArea {

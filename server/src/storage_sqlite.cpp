@@ -46,6 +46,7 @@ std::unique_ptr<Storage> OpenSqliteStorage(const std::string& path) {
   stores.jobs = std::make_unique<SqliteJobStore>(connection);
   stores.tiles = std::make_unique<SqliteTileStore>(connection);
   stores.clusters = std::make_unique<SqliteClusterStore>(connection);
+  stores.coverage = std::make_unique<SqliteCoverageStore>(connection);
   return std::make_unique<Storage>(std::move(stores));
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// SQLite implementation of the stores. One connection guarded by one mutex, shared by the six
+// SQLite implementation of the stores. One connection guarded by one mutex, shared by the seven
 // stores: SQLite serializes writers anyway, and one connection keeps BEGIN IMMEDIATE ... COMMIT
 // of different stores from interleaving.
 #include <memory>
@@ -134,6 +134,13 @@ class SqliteClusterStore final : public ChangeClusterStore, SqliteArea {
                                         int64_t offset, int64_t* total) override;
   std::optional<ChangeClusterRecord> Transition(int64_t id, const std::vector<ClusterState>& from,
                                                 ClusterTransitionRecord transition) override;
+};
+
+class SqliteCoverageStore final : public CoverageStore, SqliteArea {
+ public:
+  using SqliteArea::SqliteArea;
+  void Put(const std::vector<CoverageRecord>& records) override;
+  std::vector<CoverageRecord> List(const Rect& rect, int64_t since_ms, bool with_bits) override;
 };
 
 // Inside the caller's open transaction: the published tile's clusters by the lifecycle

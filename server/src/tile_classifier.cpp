@@ -5,6 +5,7 @@
 
 #include "mapdelta/common/change_detection.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
+#include "mapdelta/common/parallel.hpp"
 
 namespace mapdelta::server {
 
@@ -52,7 +53,51 @@ struct Neighbourhood {
   PointCloud global;                          // aggregated voxel centroids with enough support
   std::vector<const AggregateVoxel*> voxels;  // parallel to global
   std::vector<TileAggregate> aggregates;      // owns the voxels
+  std::set<int64_t> sessions;                 // of the nine tiles
 };
+
+// The octrees of `sessions` (those that have one), looked up once: the per-point loops below
+// then read them without the cache's lock.
+std::vector<std::pair<int64_t, const ObservedArea*>> AreasOf(const std::set<int64_t>& sessions,
+                                                             ObservedCache& cache) {
+  std::vector<std::pair<int64_t, const ObservedArea*>> out;
+  for (int64_t s : sessions) {
+    if (const ObservedArea* area = cache.Session(s)) out.emplace_back(s, area);
+  }
+  return out;
+}
+
+// Voxel consensus (classify.voxel_consensus): an aggregated voxel that more sessions saw free on
+// their own (min_free keyframes each, net of their hits) than put a point in it is one
+// session's depth noise, a misplaced session or a passing object. Kept, it would mask every
+// removal within th_ch and be reported as new; so it is left out of the global cloud. With one
+// session nothing changes (its own points make its octree occupied there).
+void DropContradictedVoxels(Neighbourhood& n, ObservedCache& cache, int min_free, int threads) {
+  const auto areas = AreasOf(n.sessions, cache);
+  std::vector<char> keep(n.global.size(), 1);
+  ParallelFor(
+      n.global.size(), threads,
+      [&](size_t i) {
+        const AggregateVoxel& v = *n.voxels[i];
+        size_t seen_free = 0;
+        for (const auto& [s, area] : areas) {
+          if (!std::binary_search(v.sessions.begin(), v.sessions.end(), s) &&
+              area->IsSeenFree(v.centroid, min_free))
+            ++seen_free;
+        }
+        keep[i] = seen_free <= v.sessions.size();
+      },
+      /*grain=*/1024);
+  PointCloud global;
+  std::vector<const AggregateVoxel*> voxels;
+  for (size_t i = 0; i < n.global.size(); ++i) {
+    if (!keep[i]) continue;
+    global.push_back(n.global[i]);
+    voxels.push_back(n.voxels[i]);
+  }
+  n.global = std::move(global);
+  n.voxels = std::move(voxels);
+}
 
 // Step 1: prior points and aggregated voxels of the tile and its 8 neighbours, cropped to the
 // tile grown by th_ch (points farther away cannot change any decision inside the tile).
@@ -72,8 +117,10 @@ Neighbourhood LoadNeighbourhood(Storage& storage, const TileGrid& grid, const Ti
           if (box.Contains(p)) n.prior.push_back(p);
         }
       }
-      if (auto state = storage.tiles().GetState(t))
+      if (auto state = storage.tiles().GetState(t)) {
         n.aggregates.push_back(DecodeAggregate(state->aggregate));
+        n.sessions.insert(state->sessions.begin(), state->sessions.end());
+      }
     }
   }
   for (const TileAggregate& agg : n.aggregates) {
@@ -111,6 +158,30 @@ std::vector<int64_t> ObservingSessions(const std::set<int64_t>& tile_sessions, O
   return out;
 }
 
+// A removed point's evidence under the confident free-space rule, session by session: a session
+// supports it when its own octree sees the point's voxel free with min_free keyframes net of
+// hits; it contradicts it when it has aggregated points within th_ch or its octree holds the
+// voxel as not free at all (a surface seen there); a session that only grazed the voxel (free,
+// with less evidence) observed too little to say and is left out of both. Summing stray rays of
+// many sessions in one merged octree (the rule before) let every upload add false removals.
+void RemovedEvidence(const std::vector<std::pair<int64_t, const ObservedArea*>>& areas,
+                     const Point& p, int min_free, const std::set<int64_t>& near, ChangePoint* c) {
+  for (const auto& [s, area] : areas) {
+    const bool has_points_near = near.count(s) > 0;
+    if (!has_points_near && area->IsSeenFree(p, min_free)) {
+      c->supported_by.push_back(s);
+      c->observed_by.push_back(s);
+    } else if (has_points_near || (area->IsObserved(p) && !area->IsSeenFree(p, 1))) {
+      c->observed_by.push_back(s);
+    }
+  }
+  for (int64_t s : near) {  // near sessions without an octree still observed the place
+    if (std::find(c->observed_by.begin(), c->observed_by.end(), s) == c->observed_by.end())
+      c->observed_by.push_back(s);
+  }
+  std::sort(c->observed_by.begin(), c->observed_by.end());
+}
+
 }  // namespace
 
 TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const TileId& tile,
@@ -121,12 +192,16 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
   out.record.prior_version = prior_version;
   out.record.params_json = "{\"th_ch_m\":" + std::to_string(params.th_ch_m) +
                            ",\"min_voxel_support\":" + std::to_string(params.min_voxel_support) +
+                           ",\"voxel_consensus\":" + (params.voxel_consensus ? "true" : "false") +
                            "}";
   std::set<int64_t> tile_sessions;
   if (auto state = storage.tiles().GetState(tile)) tile_sessions = state->sessions;
 
+  const int min_free = detection.removed_min_free_keyframes;
   if (!tile_sessions.empty()) {
-    const Neighbourhood n = LoadNeighbourhood(storage, grid, tile, prior_version, params);
+    Neighbourhood n = LoadNeighbourhood(storage, grid, tile, prior_version, params);
+    if (params.voxel_consensus && min_free > 0)
+      DropContradictedVoxels(n, cache, min_free, detection.threads);
     const ObservedArea& observed = cache.Merged(tile_sessions, detection.observed.resolution_m);
     const double th_ch = params.th_ch_m;
     // Step 2: paper Alg. 1 (observed prior) and Alg. 2 (new / removed) on the neighbourhood.
@@ -152,17 +227,21 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
       c.confidence = Confidence(c.supported_by.size(), c.observed_by.size());
       out.changes.push_back(std::move(c));
     }
-    const int min_free = detection.removed_min_free_keyframes;
+    const auto tile_areas = AreasOf(tile_sessions, cache);
     for (const Point& p : changes.removed_points) {
       if (!bounds.Contains(p)) continue;
-      if (min_free > 0 && !observed.IsSeenFree(p, min_free)) continue;
       const std::set<int64_t> near = SessionsNear(n, global_index, p, radius);
       ChangePoint c;
       c.position = p;
       c.kind = ChangeKind::kRemoved;
-      c.observed_by = ObservingSessions(tile_sessions, cache, p, near);
-      for (int64_t s : c.observed_by) {
-        if (!near.count(s)) c.supported_by.push_back(s);
+      if (min_free > 0) {
+        RemovedEvidence(tile_areas, p, min_free, near, &c);
+        if (c.supported_by.empty()) continue;  // no session saw the place free on its own
+      } else {  // the paper's rule: every observing session without points near supports it
+        c.observed_by = ObservingSessions(tile_sessions, cache, p, near);
+        for (int64_t s : c.observed_by) {
+          if (!near.count(s)) c.supported_by.push_back(s);
+        }
       }
       c.confidence = Confidence(c.supported_by.size(), c.observed_by.size());
       out.changes.push_back(std::move(c));

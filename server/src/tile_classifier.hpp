@@ -9,6 +9,16 @@
 // It is Laplace's rule of succession: the posterior mean of "a vehicle passing here sees this
 // change" under a uniform prior, treating each observing session as one trial. One session
 // gives 0.67, two agreeing 0.75, four agreeing 0.83; one of two agreeing 0.5.
+//
+// Under the confident free-space rule (pipeline.free_space, removed_min_free_keyframes > 0) the
+// evidence is weighed session by session, since sessions are what the lifecycle counts:
+// - a removed point needs one session that saw its voxel free on its own (min_free keyframes net
+//   of that session's hits); S = those sessions, O = S plus the sessions that saw a surface
+//   there (points within th_ch, or the voxel not free at all in their octree). A session that
+//   only grazed the voxel is neither. Before, stray rays of many sessions were summed in one
+//   merged octree, so every upload added false removals (docs/results.md, crowd run).
+// - with classify.voxel_consensus, an aggregated voxel that more sessions saw free than put a
+//   point in it is left out of the global cloud (one session's noise or a passing object).
 #include <map>
 #include <memory>
 #include <mutex>
@@ -50,7 +60,7 @@ struct TileClassification {
 // Loads the tile's and its neighbours' prior (at prior_version) and aggregates, classifies
 // the points inside the tile and returns the record to store. From `detection`: the octree
 // resolution, and the free-space rule's per-point evidence (a removed point's voxel seen free
-// by removed_min_free_keyframes keyframes of the tile's sessions together).
+// by removed_min_free_keyframes keyframes of one session, see above).
 TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const TileId& tile,
                                 int64_t prior_version, const ClassifyConfig& params,
                                 const ChangeDetectionParams& detection, ObservedCache& cache);

@@ -188,6 +188,29 @@ TEST(ObservedArea, MergeEqualsJointInsertionAndSerializationRoundTrips) {
   EXPECT_THROW(a.Merge(ObservedArea(0.8)), Error);
 }
 
+// A session's octree is stored and read back before later commits weigh its evidence: the
+// .ot stream keeps each voxel's log-odds, the .bt stream only free/occupied (read back, one
+// keyframe's free voxel looks seen free by four).
+TEST(ObservedArea, EvidenceSurvivesTheFullStreamButNotTheBinaryOne) {
+  const PinholeCamera camera = SmallCamera();
+  ObservedArea once(0.4);
+  once.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 10.f), Params());
+  const ObservedArea full = ObservedArea::DeserializeBinary(once.SerializeEvidence());
+  const ObservedArea binary = ObservedArea::DeserializeBinary(once.SerializeBinary());
+  size_t free_once = 0, free_four_binary = 0;
+  for (const Point& p : QueryGrid()) {
+    ASSERT_EQ(full.IsObserved(p), once.IsObserved(p)) << p.transpose();
+    for (int k = 1; k <= 4; ++k)
+      ASSERT_EQ(full.IsSeenFree(p, k), once.IsSeenFree(p, k)) << p.transpose() << " k " << k;
+    free_once += once.IsSeenFree(p, 1) && !once.IsSeenFree(p, 2);
+    free_four_binary += once.IsSeenFree(p, 1) && binary.IsSeenFree(p, 4);
+  }
+  EXPECT_GT(free_once, 100u);
+  EXPECT_GT(free_four_binary, free_once / 2);  // what the stored .bt made of one keyframe
+  EXPECT_EQ(ObservedArea::DeserializeBinary(ObservedArea(0.4).SerializeEvidence()).NumKnownLeaves(),
+            0u);
+}
+
 TEST(ObservedArea, RejectsBadInput) {
   const PinholeCamera camera = SmallCamera();
   ObservedArea area(0.4);
@@ -199,17 +222,18 @@ TEST(ObservedArea, RejectsBadInput) {
                Error);
   EXPECT_THROW(ObservedArea::Load("/nonexistent/x.bt"), Error);
   area.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 10.f), Params());
-  const std::string good = area.SerializeBinary();
-  std::mt19937 rng(99);
-  for (int k = 0; k < 200; ++k) {
-    const size_t cut = std::uniform_int_distribution<size_t>(0, good.size() - 1)(rng);
-    EXPECT_THROW(ObservedArea::DeserializeBinary(good.substr(0, cut)), Error) << cut;
-    std::string flipped = good;
-    flipped[std::uniform_int_distribution<size_t>(0, good.size() - 1)(rng)] ^=
-        static_cast<char>(1 + rng() % 255);
-    try {
-      ObservedArea::DeserializeBinary(flipped);  // a flip may leave a valid tree; never a crash
-    } catch (const Error&) {
+  for (const std::string& good : {area.SerializeBinary(), area.SerializeEvidence()}) {
+    std::mt19937 rng(99);
+    for (int k = 0; k < 200; ++k) {
+      const size_t cut = std::uniform_int_distribution<size_t>(0, good.size() - 1)(rng);
+      EXPECT_THROW(ObservedArea::DeserializeBinary(good.substr(0, cut)), Error) << cut;
+      std::string flipped = good;
+      flipped[std::uniform_int_distribution<size_t>(0, good.size() - 1)(rng)] ^=
+          static_cast<char>(1 + rng() % 255);
+      try {
+        ObservedArea::DeserializeBinary(flipped);  // a flip may leave a valid tree; never a crash
+      } catch (const Error&) {
+      }
     }
   }
 }

@@ -1,7 +1,8 @@
 // The server's stored tile blobs (blob_codec: magic, kind, version, size, CRC-32, zlib). They
 // come from our own database, but a damaged file or a blob from a newer binary must be refused
 // with a named error, never read past its end or sized from an unchecked header. The first
-// byte picks the decoder (points, aggregate, changes, session octree); the rest is the blob.
+// byte picks the decoder (points, aggregate, changes, session octree, coverage bits); the rest
+// is the blob.
 #include <cstdint>
 
 #include "blob_codec.hpp"
@@ -13,7 +14,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
   const server::Bytes blob(data + 1, data + size);
   try {
-    switch (data[0] % 4) {
+    switch (data[0] % 5) {
       case 0:
         server::DecodePoints(blob);
         break;
@@ -25,6 +26,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       case 3:  // as the tile classifier reads a session's octree (also a legacy bare stream)
         ObservedArea::DeserializeBinary(server::DecodeObserved(blob));
+        break;
+      case 4:
+        server::DecodePointBits(blob);
         break;
     }
   } catch (const Error& e) {

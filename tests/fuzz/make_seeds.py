@@ -144,6 +144,14 @@ def las():
     put('fuzz_las_reader', 'las12_format3_padded.las', file(2, 3, 40))
 
 
+def octree_full():
+    # OctoMap .ot (what the server stores per session): a chain from the root to one free leaf at
+    # depth 16, each node its log-odds (float) and a byte of child bits.
+    nodes = b''.join(struct.pack('<fB', 0.0, 1) for _ in range(16)) + struct.pack('<fB', -0.4, 0)
+    header = b'# Octomap OcTree file\n# (feel free to add / change comments, but leave the first line as it is!)\n#\nid OcTree\nsize 17\nres 0.8\ndata\n'
+    put('fuzz_octree_bt', 'chain.ot', header + nodes)
+
+
 def copied():
     shutil.copy(os.path.join(DATA, '..', 'web', 'data', 'wall.bt'), os.path.join(HERE, 'corpus', 'fuzz_octree_bt', 'wall.bt'))
     for name in ('cam0', 'imu0', 'depth0'):
@@ -159,5 +167,5 @@ def copied():
 
 if __name__ == '__main__':
     os.makedirs(os.path.join(HERE, 'corpus', 'fuzz_octree_bt'), exist_ok=True)
-    for make in (keyframe_meta, depth_png, api_bodies, blob_codec, pcd, ply, las, copied):
+    for make in (keyframe_meta, depth_png, api_bodies, blob_codec, pcd, ply, las, octree_full, copied):
         make()

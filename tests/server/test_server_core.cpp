@@ -80,6 +80,40 @@ std::string SmallOctreeBinary() {
   return area.SerializeBinary();
 }
 
+// Coverage bitsets (coverage.hpp): sizes that are not multiples of 64, the empty set, OR and
+// count, and the checks a damaged blob must fail.
+TEST(BlobCodec, PointBitsRoundTripAndForeignBitsAreRefused) {
+  PointBits bits(130);
+  for (size_t i : {size_t{0}, size_t{63}, size_t{64}, size_t{129}}) bits.Set(i);
+  const PointBits back = DecodePointBits(EncodePointBits(bits));
+  EXPECT_EQ(back.size(), 130u);
+  EXPECT_EQ(back.words(), bits.words());
+  EXPECT_EQ(back.Count(), 4u);
+  EXPECT_TRUE(back.Test(129));
+  EXPECT_FALSE(back.Test(128));
+  EXPECT_EQ(DecodePointBits(EncodePointBits(PointBits(0))).size(), 0u);
+
+  PointBits other(130);
+  other.Set(1);
+  other.Set(64);
+  other.Or(bits);
+  EXPECT_EQ(other.Count(), 5u);  // {0, 1, 63, 64, 129}
+  EXPECT_THROW(other.Or(PointBits(129)), Error);
+
+  // 130 bits take 3 words; a bit past the end (bit 133) or a wrong word count is damage.
+  EXPECT_THROW(PointBits::FromWords(130, {0, 0, uint64_t{1} << 5}), Error);
+  EXPECT_THROW(PointBits::FromWords(130, {0, 0}), Error);
+  EXPECT_EQ(PointBits::FromWords(130, {0, 0, uint64_t{1} << 1}).Count(), 1u);
+
+  Bytes blob = EncodePointBits(bits);
+  Bytes flipped = blob;
+  flipped.back() ^= 0x40;
+  EXPECT_THROW(DecodePointBits(flipped), Error);
+  EXPECT_THROW(DecodePointBits(Bytes(blob.begin(), blob.begin() + 15)), Error);
+  EXPECT_THROW(DecodePoints(blob), Error);                               // another kind
+  EXPECT_THROW(DecodePointBits(EncodePoints({Point(1, 2, 3)})), Error);  // and the other way
+}
+
 TEST(BlobCodec, SessionOctreesRoundTripAndCorruptionIsRefused) {
   const std::string octree = SmallOctreeBinary();
   ASSERT_GT(ObservedArea::DeserializeBinary(octree).NumKnownLeaves(), 0u);

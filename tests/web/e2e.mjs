@@ -4,7 +4,8 @@
 //   2. import a small box-scene prior and upload one vehicle session of the changed scene, in
 //      UTM coordinates (scene.mjs MAP_ORIGIN: the page must find a map far from (0, 0));
 //   3. check over REST that the changed tile is found where the scene changed (analytic truth);
-//   4. drive headless Chromium over the page (list -> 3D view -> pixels -> refresh -> before/after).
+//   4. drive headless Chromium over the page (list -> top view's change points and coverage layer
+//      -> 3D view -> pixels -> refresh -> before/after).
 // Usage: node e2e.mjs --server BIN --web-root DIR --out DIR [--screenshot FILE]
 import fs from 'node:fs';
 import path from 'node:path';
@@ -75,6 +76,13 @@ async function main() {
     check(rmPts.length > 0 && fRm >= 0.7, 'removed points lie on the removed box');
     const newCount = row.new_points ?? row.new_count, rmCount = row.removed_points ?? row.removed_count;
     check(newCount === newPts.length / 3 && rmCount === rmPts.length / 3, 'list counts match the clouds');
+    // Coverage: every prior tile of the scene is listed; the session observed some of the
+    // changed tile's points (its cameras look at it), and the page must show these numbers.
+    const coverage = (await reader.get(`/v1/coverage/tiles?bbox=${bbox}`)).tiles;
+    log(`coverage: ${JSON.stringify(coverage.map((c) => [c.tile, c.fraction, c.sessions]))}`);
+    const covered = coverage.find((c) => c.tile === S.CHANGED_TILE);
+    check(covered && covered.observed_points > 0 && covered.fraction <= 1 && covered.sessions === 1
+      && covered.vehicles === 1 && covered.last_observed, `the session covers ${S.CHANGED_TILE}`);
     const priorV1 = parseCloud(await reader.bytes(`/v1/prior/tiles/${S.CHANGED_TILE}?format=pcd&version=1`));
 
     const shotDir = path.join(args.out, 'screenshots');
@@ -84,7 +92,7 @@ async function main() {
       expected: {
         tile: S.CHANGED_TILE, new_points: newCount, removed_points: rmCount,
         prior_version: list.prior_version, prior_points_before: priorV1.length / 3,
-        origin: S.MAP_ORIGIN,
+        origin: S.MAP_ORIGIN, coverage,
       },
       screenshots: { main: path.join(shotDir, 'web-map.png'), before: path.join(shotDir, 'web-map-before.png') },
     });

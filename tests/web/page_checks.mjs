@@ -4,9 +4,57 @@
 import fs from 'node:fs';
 import path from 'node:path';
 import { canvasColourCounts, check, launchChromium } from './browser.mjs';
+import { coverageRgb } from '../../web/src/coverage.js';
 
 const CLEAR = [0x1b, 0x1f, 0x23];   // TileView3D clear colour
 const COLOURS = { prior: [0x9e, 0x9e, 0x9e], new: [0x43, 0xa0, 0x47], removed: [0xd8, 0x1b, 0x60], clear: CLEAR };
+const TOP_BACKGROUND = [0xfa, 0xfa, 0xfa];   // TopView's clear colour
+
+// The top view's pixel (RGB) at a point of the map (local metres).
+async function topPixelAt(page, x, y) {
+  return page.evaluate(([x, y]) => {
+    const { top } = window.mapdelta;
+    const [px, py] = top.toScreen(x, y);
+    return Array.from(top.ctx.getImageData(Math.round(px), Math.round(py), 1, 1).data.slice(0, 3));
+  }, [x, y]);
+}
+
+// 1b. The top view draws the changed tile's points, and the coverage layer shades every prior
+// tile by the fraction the REST API reports, with the numbers in the tile's tooltip.
+async function checkTopViewLayers(page, expected, log) {
+  await page.waitForFunction((n) => Number(document.body.dataset.topPoints) === n,
+    expected.new_points + expected.removed_points, { timeout: 20000 });
+  const px = await canvasColourCounts(page, '#topview', { new: COLOURS.new, removed: COLOURS.removed });
+  log(`top view change points: ${JSON.stringify(px)}`);
+  check(px.new > 20, `new points drawn in the top view (${px.new} px)`);
+  check(px.removed > 20, `removed points drawn in the top view (${px.removed} px)`);
+
+  await page.selectOption('#layer', 'coverage');
+  await page.waitForFunction((n) => Number(document.body.dataset.coverageTiles) === n,
+    expected.coverage.length, { timeout: 20000 });
+  const tileSize = await page.evaluate(() => window.mapdelta.top.tileSize);
+  const cv = await page.locator('#topview').boundingBox();
+  for (const c of expected.coverage) {
+    const [ix, iy] = c.tile.split('_').map(Number);
+    const [x, y] = [(ix + 0.5) * tileSize, (iy + 0.5) * tileSize];
+    // coverageFill is the ramp's colour at alpha 0.9 over the background.
+    const want = coverageRgb(c.fraction).map((v, i) => 0.9 * v + 0.1 * TOP_BACKGROUND[i]);
+    const got = await topPixelAt(page, x, y);
+    log(`coverage ${c.tile}: fraction ${c.fraction.toFixed(3)}, pixel ${got} (expected ${want.map(Math.round)})`);
+    check(got.every((v, i) => Math.abs(v - want[i]) <= 3), `tile ${c.tile} shaded by its fraction`);
+    const [sx, sy] = await page.evaluate(([x, y]) => {
+      const { top } = window.mapdelta;
+      const dpr = window.devicePixelRatio || 1;
+      return top.toScreen(x, y).map((v) => v / dpr);
+    }, [x, y]);
+    await page.mouse.move(cv.x + sx, cv.y + sy);
+    const title = await page.getAttribute('#topview', 'title');
+    check(title.includes(`${Math.round(100 * c.fraction)}% of ${c.prior_points} prior points`)
+      && title.includes(c.last_observed ? `last observed ${c.last_observed}` : 'never observed'),
+    `tooltip of ${c.tile} gives its coverage and freshness ("${title}")`);
+  }
+  await page.selectOption('#layer', 'changes');
+}
 
 // Enters a token in the page's form and waits until the page has judged it (a role badge or
 // an error status).
@@ -65,6 +113,7 @@ export async function runPageChecks({ baseUrl, adminToken, readerToken, vehicleT
     check(Number(cells[4]) === expected.removed_points, `row removed ${cells[4]} == API ${expected.removed_points}`);
     check((await page.textContent('#prior-version')) === `prior v${expected.prior_version}`, 'prior version badge');
     check((await page.textContent('#role')) === 'admin', 'admin role detected');
+    await checkTopViewLayers(page, expected, log);
 
     // 2. Open its 3D view and evidence.
     await row.click();

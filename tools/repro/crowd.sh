@@ -6,6 +6,9 @@
 # observed them), and those of confirmed change clusters (issue #20's lifecycle, the server's
 # lifecycle.* defaults). P_g and A_obs for the evaluation come from mapdelta-detect on the N
 # sessions' keyframes merged, whose own offline detection is reported beside the server's.
+# With --crowd-replay FROM the uploads are FROM's keyframe folders sent again with
+# `mapdelta-client upload` (the server registers and classifies them anew), and FROM's merged
+# detections stand in for P_g / A_obs: the same sessions through another server build in minutes.
 
 crowd_server_pid=""
 crowd_stop_server() {
@@ -104,10 +107,17 @@ crowd_snapshot() {
     jq -r --arg k "$kind" 'select(.kind == $k) | .p | map(tostring) | join(" ")' "$dir/confirmed.jsonl" |
       ascii_pcd "$dir/server_confirmed_$kind.pcd"
   done
-  local kfs=() i
-  for i in $(seq 1 "$n"); do kfs+=("$out/crowd/u$i/keyframes"); done
-  merge_keyframes "$dir/keyframes" "${kfs[@]}"
-  detect_and_eval_keep "$ds" "$crowd_seq" "$dir/keyframes" "$dir/merged" "$thf_point" "$operating_bound"
+  local kfs=() i from=${crowd_replay:+$crowd_replay/crowd/N$n/merged}
+  if [ -n "$from" ] && [ -f "$from/changes.json" ] && [ -f "$from/global.pcd" ] && [ -f "$from/observed.bt" ]; then
+    mkdir -p "$dir/merged"
+    for f in changes.json summary.json time_s global.pcd observed.bt new.pcd removed.pcd; do
+      [ -f "$from/$f" ] && ln -f "$from/$f" "$dir/merged/$f"
+    done
+  else
+    for i in $(seq 1 "$n"); do kfs+=("$out/crowd/u$i/keyframes"); done
+    merge_keyframes "$dir/keyframes" "${kfs[@]}"
+    detect_and_eval_keep "$ds" "$crowd_seq" "$dir/keyframes" "$dir/merged" "$thf_point" "$operating_bound"
+  fi
   local scene=${crowd_seq%%_*} which
   for which in all majority confirmed; do
     "$bin_eval" changes --original "$ds/scenes/original/cloud.pcd" --changed "$ds/scenes/$scene/cloud.pcd" \
@@ -124,7 +134,7 @@ crowd_snapshot() {
       offline_merged: $o[0].paper, changed_tiles: $tiles, clusters: $clusters}' \
     >"$dir/snapshot.json"
   rm -rf "$dir/keyframes"
-  [ "$keep_data" = 1 ] || rm -f "$dir/merged/global.pcd" "$dir/merged/observed.bt"
+  # The merged clouds stay (one pair per snapshot): a --crowd-replay of this run evaluates with them.
   say "  server (all): $(jq -c '.server_all | {R_new, P_new, R_rm, P_rm} | map_values(. * 1000 | round / 1000)' "$dir/snapshot.json")"
   say "  server (confirmed): $(jq -c '.server_confirmed | {R_new, P_new, R_rm, P_rm} | map_values(if . == null then null else . * 1000 | round / 1000 end)' "$dir/snapshot.json")"
 }
@@ -170,19 +180,33 @@ EOF3
   done
   crowd_url="http://$(sed -n 's/^listening on //p' "$cdir/server/stdout.log")"
   local seqs; IFS=, read -r -a seqs <<<"$crowd_seq"
-  local ds1; ds1=$(ensure_dataset "$crowd_preset" "$crowd_noise" 1 "${seqs[0]}")
+  local ds1=$data/clean-$crowd_preset-s$city_seed
+  [ -n "$crowd_replay" ] || ds1=$(ensure_dataset "$crowd_preset" "$crowd_noise" 1 "${seqs[0]}")
   crowd_api POST "/v1/admin/prior?format=pcd" "$crowd_admin" -H 'Content-Type: application/octet-stream' \
     --data-binary "@$ds1/scenes/original/cloud.pcd" >/dev/null
   local i ds seq
   for i in $(seq 1 "$max"); do
     seq=${seqs[$(((i - 1) % ${#seqs[@]}))]}
-    ds=$(ensure_dataset "$crowd_preset" "$crowd_noise" "$i" "$seq")
-    say "crowd: upload $i/$max ($seq, noise seed $i, vehicle crowd-car-$i): client with the server's prior tiles, upload, commit"
     rm -rf "$cdir/u$i"
     printf 'upload:\n  vehicle_id: crowd-car-%d\n' "$i" >"$cdir/u$i.yaml"
-    $nice_cmd "$bin_client" run --sequence "$ds/sequences/$seq" --odometry vio --server "$crowd_url" \
-      --token "$vehicle" --config "$cdir/u$i.yaml" --out "$cdir/u$i" >"$cdir/u$i.log" 2>&1 ||
-      die "client failed (see $cdir/u$i.log)"
+    if [ -n "$crowd_replay" ]; then
+      ds=$data/clean-$crowd_preset-s$city_seed  # only its scene clouds are read
+      [ -f "$ds/scenes/original/cloud.pcd" ] || die "--crowd-replay: no $ds/scenes/original/cloud.pcd (use the run's --data)"
+      local src=$crowd_replay/crowd/u$i
+      [ -f "$src/keyframes/poses.txt" ] || die "--crowd-replay: no $src/keyframes/poses.txt"
+      say "crowd: upload $i/$max again (keyframes of $src, vehicle crowd-car-$i): upload, commit"
+      mkdir -p "$cdir/u$i"
+      cp -al "$src/keyframes" "$cdir/u$i/keyframes"
+      cp "$src/timing.txt" "$cdir/u$i/timing.txt"
+      "$bin_client" upload "$cdir/u$i/keyframes" --server "$crowd_url" --token "$vehicle" \
+        --config "$cdir/u$i.yaml" >"$cdir/u$i.log" 2>&1 || die "upload failed (see $cdir/u$i.log)"
+    else
+      ds=$(ensure_dataset "$crowd_preset" "$crowd_noise" "$i" "$seq")
+      say "crowd: upload $i/$max ($seq, noise seed $i, vehicle crowd-car-$i): client with the server's prior tiles, upload, commit"
+      $nice_cmd "$bin_client" run --sequence "$ds/sequences/$seq" --odometry vio --server "$crowd_url" \
+        --token "$vehicle" --config "$cdir/u$i.yaml" --out "$cdir/u$i" >"$cdir/u$i.log" 2>&1 ||
+        die "client failed (see $cdir/u$i.log)"
+    fi
     crowd_wait_jobs
     [[ ",$crowd," == *",$i,"* ]] && crowd_snapshot "$i" "$ds"
     prune_dataset "$ds" "$seq"

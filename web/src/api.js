@@ -1,6 +1,7 @@
 // REST client for mapdelta-server (same origin; contract in docs/api.md and
 // server/openapi.yaml). Every call carries the bearer token; errors become ApiError with the
 // server's {"error":{"code","message"}} body so the page can say what went wrong.
+import { normalizeCoverage } from './coverage.js';
 
 export class ApiError extends Error {
   constructor(status, code, message, path) {
@@ -59,6 +60,24 @@ export class Api {
       complete = page < maxPages;
     }
     return { tiles, priorVersion, tileSize, complete };
+  }
+
+  // Coverage and freshness of the prior tiles in bbox over the last `days` days (coverage.js),
+  // paged as changedTiles.
+  async coverageTiles(bbox, days, maxPages = 20) {
+    const tiles = [];
+    let complete = true;
+    for (let page = 1; page <= maxPages; page++) {
+      const q = new URLSearchParams({
+        bbox: bbox.map((v) => v.toFixed(2)).join(','), days: String(days), page: String(page), page_size: '500',
+      });
+      const j = await this.request(`/v1/coverage/tiles?${q}`);
+      const rows = j.tiles ?? [];
+      tiles.push(...rows.map(normalizeCoverage));
+      if (rows.length === 0 || tiles.length >= (j.total ?? 0)) { complete = true; break; }
+      complete = page < maxPages;
+    }
+    return { tiles, complete };
   }
 
   // The map's frame (CRS, origin), extent and prior version (web/src/mapframe.js).

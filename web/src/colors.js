@@ -6,6 +6,9 @@ export const STATE_COLORS = {
   refreshed: [30, 136, 229],   // merged into a newer prior version
 };
 
+// Change points (top view and 3D view alike).
+export const POINT_COLORS = { new: [67, 160, 71], removed: [216, 27, 96] };
+
 // Confidence in [0,1] sets the fill's opacity so faint evidence looks faint.
 export function stateFill(state, confidence) {
   const c = STATE_COLORS[state] ?? STATE_COLORS.candidate;
@@ -16,5 +19,6 @@ export function stateFill(state, confidence) {
 export function legendHtml() {
   return Object.entries(STATE_COLORS)
     .map(([k, c]) => `<span><i style="background:rgb(${c})"></i>${k}</span>`)
-    .join('') + '<span class="hint">opacity = confidence</span>';
+    .join('') + Object.entries(POINT_COLORS).map(([k, c]) => `<span><i style="background:rgb(${c})"></i>${k} point</span>`).join('')
+    + '<span class="hint">opacity = confidence</span>';
 }

@@ -1,15 +1,16 @@
-// Page wiring: token, top view + list of changed tiles in view, tile detail (3D, evidence,
-// versions), admin refresh. Everything comes from the same-origin REST API.
+// Page wiring: token, top view (changes or coverage layer) + list of changed tiles in view, tile
+// detail (3D, evidence, versions), admin refresh. Everything comes from the same-origin REST API.
 import './style.css';
 import { Api, ApiError } from './api.js';
 import { parseCloud } from './cloudparse.js';
 import { legendHtml } from './colors.js';
+import { coverageLegendHtml, coverageTooltip } from './coverage.js';
 import { LOCAL_FRAME, frameOf, initialBox, localXyz, toMapBox } from './mapframe.js';
 import { observedFootprint } from './octomap.js';
 import { renderEvidence, summarizeReport } from './evidence.js';
 import { runRefresh } from './jobs.js';
 import { TileList } from './tilelist.js';
-import { TopView } from './topview.js';
+import { POINTS_MIN_TILE_PX, TopView } from './topview.js';
 import { TileView3D } from './tileview3d.js';
 
 const TOKEN_KEY = 'mapdelta.token';
@@ -26,10 +27,64 @@ function status(text, isError = false) {
   $('status').classList.toggle('error', isError);
 }
 
-const top = new TopView($('topview'), { onViewChange: loadView, onPick: pickTile });
+const top = new TopView($('topview'), { onViewChange: loadView, onPick: pickTile, tooltip: tileTooltip });
 const list = new TileList($('tile-list'), $('tile-count'), pickTile);
 const view = new TileView3D($('view3d'), $('view3d-info'));
-$('legend-2d').innerHTML = legendHtml();
+// Change points are fetched for at most this many changed tiles in view (one request each).
+const MAX_POINT_TILES = 60;
+const pointCache = new Map();   // tile|min_confidence|updated_at -> {new, removed} local x,y
+
+function coverageDays() {
+  const d = Math.round(Number($('coverage-days').value));
+  return Number.isFinite(d) && d >= 1 && d <= 3650 ? d : 30;
+}
+
+function showLegend() {
+  $('legend-2d').innerHTML = top.layer === 'coverage' ? coverageLegendHtml(coverageDays()) : legendHtml();
+}
+showLegend();
+
+function tileTooltip(id) {
+  if (top.layer === 'coverage') {
+    const c = top.coverage.get(id);
+    return c ? coverageTooltip(c, coverageDays(), Date.now()) : `tile ${id}: no prior points`;
+  }
+  const t = top.changed.get(id);
+  if (!t) return top.priorTiles.has(id) ? `tile ${id}: no changes` : '';
+  if (t.state === 'refreshed') return `tile ${id}: refreshed`;
+  return `tile ${id}: ${t.state}, confidence ${t.confidence.toFixed(2)}, ${t.new_points} new, ${t.removed_points} removed points`;
+}
+
+// x,y pairs (local) of a tile report's points.
+function localXy(points) {
+  const xyz = localXyz(state.frame, points);
+  if (!xyz) return null;
+  const xy = new Float32Array((xyz.length / 3) * 2);
+  for (let i = 0, j = 0; i < xyz.length; i += 3, j += 2) { xy[j] = xyz[i]; xy[j + 1] = xyz[i + 1]; }
+  return xy;
+}
+
+// The changed points of the changed tiles in view (when tiles are big enough to show them), for
+// the top view; reports are cached until the tile's changes are updated.
+async function loadPoints(tiles, minConf, seq) {
+  const points = new Map();
+  if (top.tilePixels() >= POINTS_MIN_TILE_PX && tiles.length <= MAX_POINT_TILES) {
+    await Promise.all(tiles.map(async (t) => {
+      const key = `${t.tile}|${minConf}|${t.updated_at}`;
+      if (!pointCache.has(key)) {
+        const report = await api.tileChanges(t.tile, minConf);
+        pointCache.set(key, { new: localXy(report.new), removed: localXy(report.removed) });
+      }
+      points.set(t.tile, pointCache.get(key));
+    }));
+  }
+  if (seq !== loadSeq) return;
+  top.points = points;
+  let n = 0;
+  for (const p of points.values()) n += ((p.new?.length ?? 0) + (p.removed?.length ?? 0)) / 2;
+  document.body.dataset.topPoints = String(n);   // for tests: change points in the top view
+  top.draw();
+}
 
 function setPriorVersion(v) {
   if (v === null || v === undefined) return;
@@ -76,9 +131,20 @@ async function loadView(localBox) {
     }
     top.changed = shown;
     top.priorTiles = new Map(prior.tiles.map((t) => [t.tile, t.points]));
+    let covered = '';
+    if (top.layer === 'coverage') {
+      const days = coverageDays();
+      const cov = await api.coverageTiles(bbox, days);
+      if (seq !== loadSeq) return;
+      top.coverage = new Map(cov.tiles.map((c) => [c.tile, c]));
+      const seen = cov.tiles.filter((c) => c.observed_points > 0).length;
+      covered = `; ${seen} of ${cov.tiles.length} observed in the last ${days} days`;
+      document.body.dataset.coverageTiles = String(cov.tiles.length);
+    }
     top.draw();
     list.set(changes.tiles, changes.complete);
-    status(`${changes.tiles.length} changed / ${prior.tiles.length} prior tiles in view`);
+    status(`${changes.tiles.length} changed / ${prior.tiles.length} prior tiles in view${covered}`);
+    if (top.layer === 'changes') await loadPoints(changes.tiles, minConf, seq);
   } catch (e) {
     if (seq === loadSeq) status(e.message, true);
   }
@@ -206,6 +272,13 @@ $('before-after').addEventListener('click', () => {
   sel.dispatchEvent(new Event('change'));
 });
 $('min-confidence').addEventListener('change', () => loadView(top.bbox()));
+$('layer').addEventListener('change', (e) => {
+  top.layer = e.target.value;
+  showLegend();
+  top.draw();
+  loadView(top.bbox());
+});
+$('coverage-days').addEventListener('change', () => { showLegend(); loadView(top.bbox()); });
 $('refresh-tile').addEventListener('click', async () => {
   if (!state.tile) return;
   const tile = state.tile;

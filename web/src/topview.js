@@ -1,10 +1,16 @@
 // 2D top view of the tile grid: pan (drag), zoom (wheel), click to pick a tile. It draws
 // whatever tiles the caller hands it and reports the visible x/y box so only tiles in view
-// are fetched. World x points right, y up (map frame seen from above).
-import { stateFill } from './colors.js';
+// are fetched. World x points right, y up (map frame seen from above). Two layers: "changes"
+// (tiles by change state, and the changed points themselves once tiles are big enough on
+// screen) and "coverage" (tiles shaded by the fraction of their prior points observed lately).
+import { POINT_COLORS, stateFill } from './colors.js';
+import { coverageFill } from './coverage.js';
+
+// Change points are drawn once a tile is at least this many pixels wide.
+export const POINTS_MIN_TILE_PX = 24;
 
 export class TopView {
-  constructor(canvas, { onViewChange, onPick }) {
+  constructor(canvas, { onViewChange, onPick, tooltip = () => '' }) {
     this.canvas = canvas;
     this.ctx = canvas.getContext('2d');
     this.onViewChange = onViewChange;
@@ -14,6 +20,10 @@ export class TopView {
     this.tileSize = 50;
     this.priorTiles = new Map();    // tile id -> points
     this.changed = new Map();       // tile id -> summary
+    this.layer = 'changes';         // or 'coverage'
+    this.coverage = new Map();      // tile id -> normalized coverage (coverage.js)
+    this.points = new Map();        // tile id -> {new, removed}: Float32Array x,y pairs (local)
+    this.tooltip = tooltip;         // tile id -> text of the canvas's title
     this.selected = null;
     this.bindEvents();
     new ResizeObserver(() => this.resize()).observe(canvas);
@@ -61,6 +71,9 @@ export class TopView {
       this.center[1] - (py - r.height / 2) / this.scale];
   }
 
+  // Tile width on screen, in CSS pixels.
+  tilePixels() { return this.tileSize * this.scale; }
+
   tileAt(px, py) {
     const [x, y] = this.toWorld(px, py);
     return `${Math.floor(x / this.tileSize)}_${Math.floor(y / this.tileSize)}`;
@@ -73,7 +86,11 @@ export class TopView {
       this.canvas.setPointerCapture(e.pointerId);
     });
     this.canvas.addEventListener('pointermove', (e) => {
-      if (!drag) return;
+      if (!drag) {
+        const r = this.canvas.getBoundingClientRect();
+        this.canvas.title = this.tooltip(this.tileAt(e.clientX - r.left, e.clientY - r.top)) ?? '';
+        return;
+      }
       const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
       if (Math.abs(dx) + Math.abs(dy) > 3) drag.moved = true;
       this.center = [drag.c[0] - dx / this.scale, drag.c[1] + dy / this.scale];
@@ -130,19 +147,28 @@ export class TopView {
       const [x0, y1] = this.toScreen(ix * s, (iy + 1) * s);
       return [x0, y1, px, px];
     };
-    for (const id of this.priorTiles.keys()) {
-      if (this.changed.has(id)) continue;
-      ctx.fillStyle = stateFill('none', 0);
-      ctx.fillRect(...rect(id));
-    }
-    for (const [id, t] of this.changed) {
-      ctx.fillStyle = stateFill(t.state, t.confidence);
-      ctx.fillRect(...rect(id));
+    if (this.layer === 'coverage') {
+      for (const [id, c] of this.coverage) {
+        ctx.fillStyle = coverageFill(c.fraction);
+        ctx.fillRect(...rect(id));
+      }
+    } else {
+      for (const id of this.priorTiles.keys()) {
+        if (this.changed.has(id)) continue;
+        ctx.fillStyle = stateFill('none', 0);
+        ctx.fillRect(...rect(id));
+      }
+      for (const [id, t] of this.changed) {
+        ctx.fillStyle = stateFill(t.state, t.confidence);
+        ctx.fillRect(...rect(id));
+      }
+      if (this.tilePixels() >= POINTS_MIN_TILE_PX) this.drawPoints(dpr);
     }
     if (px > 48) {
       ctx.fillStyle = '#37474f';
       ctx.font = `${11 * dpr}px system-ui`;
-      for (const id of new Set([...this.priorTiles.keys(), ...this.changed.keys()])) {
+      const ids = this.layer === 'coverage' ? this.coverage.keys() : [...this.priorTiles.keys(), ...this.changed.keys()];
+      for (const id of new Set(ids)) {
         const [x, y] = rect(id);
         ctx.fillText(id, x + 3 * dpr, y + 13 * dpr);
       }
@@ -151,6 +177,24 @@ export class TopView {
       ctx.strokeStyle = '#000';
       ctx.lineWidth = 2 * dpr;
       ctx.strokeRect(...rect(this.selected));
+    }
+  }
+
+  // The changed points of the tiles in this.points: one square dot each (removed under new).
+  drawPoints(dpr) {
+    const { ctx, canvas } = this;
+    const size = Math.max(2, Math.min(6, 0.5 * this.scale)) * dpr;   // about 0.5 m, 2..6 px
+    for (const kind of ['removed', 'new']) {
+      ctx.fillStyle = `rgb(${POINT_COLORS[kind]})`;
+      for (const pts of this.points.values()) {
+        const xy = pts[kind];
+        if (!xy) continue;
+        for (let i = 0; i < xy.length; i += 2) {
+          const [x, y] = this.toScreen(xy[i], xy[i + 1]);
+          if (x < -size || y < -size || x > canvas.width + size || y > canvas.height + size) continue;
+          ctx.fillRect(x - size / 2, y - size / 2, size, size);
+        }
+      }
     }
   }
 }

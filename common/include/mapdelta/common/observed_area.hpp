@@ -87,11 +87,18 @@ class ObservedArea {
   // Adds the other area's evidence (log-odds) voxel by voxel; resolutions must match.
   void Merge(const ObservedArea& other);
 
-  // OctoMap .bt (readable by octovis and octomap tools). Load/Deserialize validate the whole
-  // bit stream before OctoMap sees it and throw Error(kParse) naming the file or "octree bytes".
+  // OctoMap .bt (readable by octovis and octomap tools): free or occupied per voxel, no more.
+  // Read back, every free voxel holds OctoMap's clamped minimum, so IsSeenFree(p, k) is true
+  // for any k: keep an area whose evidence is read again (a session's, on the server) with
+  // SerializeEvidence. Load/Deserialize validate the whole stream before OctoMap sees it and
+  // throw Error(kParse) naming the file or "octree bytes".
   void Save(const std::string& bt_path) const;
   static ObservedArea Load(const std::string& bt_path);
   std::string SerializeBinary() const;
+  // OctoMap .ot: every voxel's log-odds, so IsSeenFree reads the same evidence after a round
+  // trip (about 2.5x the bytes of .bt before compression).
+  std::string SerializeEvidence() const;
+  // Either format, told apart by the first line.
   static ObservedArea DeserializeBinary(const std::string& bytes);
 
   size_t NumKnownLeaves() const;

@@ -85,6 +85,9 @@ struct PipelineConfig {
 struct ClassifyConfig {
   double th_ch_m = 3.2;       // change distance threshold
   int min_voxel_support = 1;  // aggregated voxels seen by fewer sessions are ignored
+  // With the confident free-space rule: an aggregated voxel that more sessions saw free than put
+  // a point in it is ignored (tile_classifier.cpp, DropContradictedVoxels).
+  bool voxel_consensus = true;
 };
 
 // Change clusters' lifecycle (issue #20; server/src/change_lifecycle.hpp has the rules).

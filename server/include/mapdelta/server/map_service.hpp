@@ -110,6 +110,14 @@ class MapService {
   Json DecideCluster(int64_t cluster_id, ClusterState to, const Json& body,
                      const std::string& admin_name);
 
+  // --- coverage and freshness (issue #20 item 4; coverage_store.hpp)
+  // Every tile with prior points in the bbox (user coordinates), by (ix, iy): how many of its
+  // points sessions created in the last `days` days (1..3650) observed, the newest observation
+  // (any age), and those sessions and vehicles. kNoPrior without a prior map.
+  Json ListCoverageTiles(const std::string& bbox, int64_t days, int64_t page, int64_t page_size);
+  // One tile's, with the sessions of the window; kNotFound if it has no prior points.
+  Json GetTileCoverage(const std::string& tile, int64_t days);
+
   // --- admin jobs
   Json CreateJob(const Json& body);
   Json ListJobs(int64_t page, int64_t page_size);

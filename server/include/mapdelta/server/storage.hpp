@@ -1,5 +1,5 @@
 #pragma once
-// The server's storage: one database seen through six per-area stores. Blobs are opaque here
+// The server's storage: one database seen through seven per-area stores. Blobs are opaque here
 // (the service layer encodes them), so a backend needs only the store headers' contract, which
 // tests/server/test_storage_contract.cpp checks for every backend. Every store method is
 // atomic: it applies fully or throws. The few writes that span areas (a commit queues its job,
@@ -11,6 +11,7 @@
 
 #include "mapdelta/server/change_cluster_store.hpp"
 #include "mapdelta/server/config.hpp"
+#include "mapdelta/server/coverage_store.hpp"
 #include "mapdelta/server/job_store.hpp"
 #include "mapdelta/server/prior_store.hpp"
 #include "mapdelta/server/session_store.hpp"
@@ -21,7 +22,7 @@ namespace mapdelta::server {
 
 class Storage {
  public:
-  // One backend's stores; all six are required.
+  // One backend's stores; all seven are required.
   struct Stores {
     std::unique_ptr<TokenStore> tokens;
     std::unique_ptr<PriorStore> priors;
@@ -29,6 +30,7 @@ class Storage {
     std::unique_ptr<JobStore> jobs;
     std::unique_ptr<TileStore> tiles;
     std::unique_ptr<ChangeClusterStore> clusters;
+    std::unique_ptr<CoverageStore> coverage;
   };
   explicit Storage(Stores stores);  // throws Error(kInternal) if a store is missing
 
@@ -38,6 +40,7 @@ class Storage {
   JobStore& jobs() { return *stores_.jobs; }
   TileStore& tiles() { return *stores_.tiles; }
   ChangeClusterStore& clusters() { return *stores_.clusters; }
+  CoverageStore& coverage() { return *stores_.coverage; }
 
  private:
   Stores stores_;
