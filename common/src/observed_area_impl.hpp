@@ -10,13 +10,22 @@
 
 namespace mapdelta {
 
+// Every OcTree allocates a ray buffer of 100000 keys (600 KB) for OctoMap's own insertRay /
+// castRay / computeUpdate, which nothing here calls (rays are cast by AddRayKeys into a KeyRay
+// of its own; merges and queries need none): the trees drop it. A commit job holds every decoded
+// session octree of its tiles, so with 80 sessions this buffer was 48 of its 118 MB heap peak
+// (heaptrack, docs/reliability.md). Those OctoMap calls would throw std::out_of_range on such a
+// tree, not misbehave.
 struct ObservedArea::Impl {
-  explicit Impl(double resolution_m) : tree(resolution_m) {}
+  explicit Impl(double resolution_m) : tree(resolution_m) { tree.clearKeyRays(); }
+  Impl(const Impl& other) : tree(other.tree) { tree.clearKeyRays(); }
   octomap::OcTree tree;
 };
 
 struct PriorSurfaces::Impl {
-  Impl(double resolution_m, size_t expected) : grid(resolution_m), voxels(expected) {}
+  Impl(double resolution_m, size_t expected) : grid(resolution_m), voxels(expected) {
+    grid.clearKeyRays();
+  }
   octomap::OcTree grid;       // empty: only its key arithmetic (the observed area's keys)
   detail::FlatKeySet voxels;  // packed keys of the voxels holding prior points
 };

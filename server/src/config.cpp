@@ -19,6 +19,7 @@ ConfigSchema Schema(ServerConfig& c) {
       .Field("http.max_prior_bytes", &h.max_prior_bytes, 1024, INT64_MAX)
       .Field("http.read_timeout_s", &h.read_timeout_s, 1, 86400)
       .Field("http.write_timeout_s", &h.write_timeout_s, 1, 86400)
+      .Field("http.observed_cache_bytes", &h.observed_cache_bytes, 0, INT64_MAX)
       .Field("http.web_root", &h.web_root)
       .Field("storage.backend", &c.storage.backend, {"sqlite", "postgres"})
       .OptionalField("storage.database", &c.storage.database)  // the rule below

@@ -340,7 +340,11 @@ void RegisterMapRoutes(httplib::Server& s, MapService& svc) {
         Wrap(svc, "/v1/observed/tiles/{tile}.bt", {},
              [&svc](const Req& req, Res& res, std::string& role) {
                Auth(svc, req, role, {R});
-               WriteFile(req, res, svc.GetObservedTile(req.matches[1]));
+               // A reader that has this tile state's octree gets 304 without a merge.
+               WriteFile(req, res,
+                         svc.GetObservedTile(req.matches[1], [&req](const std::string& e) {
+                           return ClientHas(req, e);
+                         }));
              }));
 }
 

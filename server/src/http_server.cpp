@@ -22,6 +22,7 @@ struct HttpServer::Impl {
   explicit Impl(MapService& s) : service(s) {}
   MapService& service;
   httplib::Server server;
+  int listen_socket = -1;  // the last socket httplib made to bind (the listening one on success)
 };
 
 HttpServer::HttpServer(MapService& service) : impl_(std::make_unique<Impl>(service)) {
@@ -43,9 +44,10 @@ HttpServer::HttpServer(MapService& service) : impl_(std::make_unique<Impl>(servi
   // httplib's default socket options add SO_REUSEPORT, with which a second server binds the
   // same port without an error and the kernel splits the connections between the two.
   // SO_REUSEADDR alone still allows a restart while old connections are in TIME_WAIT.
-  s.set_socket_options([](socket_t sock) {
+  s.set_socket_options([impl = impl_.get()](socket_t sock) {
     const int yes = 1;
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+    impl->listen_socket = sock;
   });
   RegisterRoutes(s, service);
   InstallProtocolHandlers(s, service,
@@ -61,6 +63,16 @@ int HttpServer::Bind(const std::string& address, int port) {
     bound = impl_->server.bind_to_any_port(address);
   else if (!impl_->server.bind_to_port(address, port))
     bound = -1;
+  // The system's httplib library listens with a backlog of 5 (CPPHTTPLIB_LISTEN_BACKLOG is
+  // compiled into it): a burst of connects while the accept thread waits for the CPU overflows
+  // that queue, and the kernel drops SYNs (a load run lost 2 POST /v1/sessions so). Linux takes
+  // a second listen() on a listening socket as a new backlog; the kernel caps it at
+  // net.core.somaxconn.
+  if (bound > 0 && ::listen(impl_->listen_socket, SOMAXCONN) != 0) {
+    const std::string reason = std::strerror(errno);
+    throw Error(ErrorCode::kIo, "cannot set the listen backlog on " + address + ":" +
+                                    std::to_string(bound) + ": " + reason);
+  }
   if (bound <= 0) {
     // httplib reports only failure; errno is what its last bind()/listen() left.
     const std::string reason = errno != 0 ? std::strerror(errno) : "address not usable";

@@ -9,12 +9,14 @@
 #include "auth.hpp"
 #include "blob_codec.hpp"
 #include "change_lifecycle.hpp"
+#include "heap_trim.hpp"
 #include "job_lease.hpp"
 #include "jobs.hpp"
 #include "keyframe_cloud.hpp"
 #include "mapdelta/common/depth_image.hpp"
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
+#include "observed_tile_cache.hpp"
 #include "tile_work.hpp"
 
 namespace mapdelta::server {
@@ -64,6 +66,7 @@ MapService::MapService(ServerConfig config, std::unique_ptr<Storage> storage)
   ValidateServerConfig(config_);
   // Every publish of tile changes from here on keeps the change clusters' lifecycle.
   storage_->tiles().SetClusterLifecycle(std::make_shared<ChangeLifecycle>(config_.lifecycle));
+  observed_cache_ = std::make_unique<ObservedTileCache>(config_.http.observed_cache_bytes);
 }
 
 MapService::~MapService() { StopJobWorker(); }
@@ -246,7 +249,9 @@ Json MapService::Health() {
   return j;
 }
 
-std::string MapService::RenderMetrics() { return metrics_.Render(storage_->jobs().CountByState()); }
+std::string MapService::RenderMetrics() {
+  return metrics_.Render(storage_->jobs().CountByState(), observed_cache_->Stats());
+}
 
 // ---------------------------------------------------------------- job worker
 
@@ -275,6 +280,9 @@ void MapService::WorkerLoop() {
     } catch (const std::exception& e) {
       MD_LOG(kError, "job worker: " << e.what());
     }
+    // A job's transient memory (decoded session octrees, clouds) is freed by now; without this
+    // malloc keeps it and RSS grows with every commit (heap_trim.hpp).
+    if (ran) ReturnFreedHeapToSystem();
     if (!ran) {
       std::unique_lock lock(wake_mutex_);
       wake_.wait_for(lock, std::chrono::milliseconds(250));

@@ -15,11 +15,8 @@
 #include "mapdelta/common/error.hpp"
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/number_text.hpp"
-#include "mapdelta/common/observed_area.hpp"
 #include "mapdelta/server/map_service.hpp"
-#include "observed_crop.hpp"
 #include "query_params.hpp"
-#include "tile_classifier.hpp"
 
 namespace mapdelta::server {
 namespace {
@@ -299,24 +296,6 @@ FilePayload MapService::GetTileChanges(const std::string& tile_text, const std::
   p.bytes.assign(text.begin(), text.end());
   p.content_type = "application/json";
   p.prior_version = record->prior_version;
-  return p;
-}
-
-FilePayload MapService::GetObservedTile(const std::string& tile_text) {
-  const TileId tile = ParseTile(tile_text);
-  auto state = storage_->tiles().GetState(tile);
-  if (!state || state->sessions.empty())
-    throw ApiError(ApiCode::kNotFound, "tile " + tile_text + " has no observations");
-  ObservedCache cache(*storage_);
-  const ObservedArea& merged = cache.Merged(state->sessions, config_.pipeline.octree_resolution_m);
-  // The merged octree covers the sessions' whole drives: cut it to this tile.
-  const AxisAlignedBox b = TileGrid(config_.storage.tile_size_m).Bounds(tile);
-  const std::string bt =
-      CropOctreeXY(merged.SerializeBinary(), b.min.x(), b.min.y(), b.max.x(), b.max.y());
-  FilePayload p;
-  p.bytes.assign(bt.begin(), bt.end());
-  p.content_type = "application/octet-stream";
-  p.prior_version = storage_->priors().LatestVersion().value_or(0);
   return p;
 }
 

@@ -152,22 +152,25 @@ TEST(BlobCodec, SessionOctreesRoundTripAndCorruptionIsRefused) {
 TEST(Config, ReportsEveryProblemAtOnceAndLoadsTheExample) {
   const fs::path d = TempDir("config");
   std::ofstream(d / "bad.yaml")
-      << "http:\n  prot: 1\n  threads: many\nstorage:\n  tile_size_m: -3\nextra: 1\n";
+      << "http:\n  prot: 1\n  threads: many\n  observed_cache_bytes: -1\nstorage:\n"
+      << "  tile_size_m: -3\nextra: 1\n";
   try {
     LoadServerConfig((d / "bad.yaml").string());
     FAIL() << "bad config accepted";
   } catch (const Error& e) {
     const std::string m = e.what();
-    EXPECT_NE(m.find("4 problem(s)"), std::string::npos) << m;
+    EXPECT_NE(m.find("5 problem(s)"), std::string::npos) << m;
     for (const char* key :
          {"http.prot: unknown key", "http.threads: expected an integer, got 'many'",
-          "storage.tile_size_m: -3 is outside", "extra: unknown section"}) {
+          "http.observed_cache_bytes: -1 is outside", "storage.tile_size_m: -3 is outside",
+          "extra: unknown section"}) {
       EXPECT_NE(m.find(key), std::string::npos) << key << " missing in: " << m;
     }
   }
   const ServerConfig example =
       LoadServerConfig(std::string(MAPDELTA_SOURCE_DIR) + "/config/server.example.yaml");
   EXPECT_EQ(example.http.port, 8080);
+  EXPECT_EQ(example.http.observed_cache_bytes, int64_t{64} << 20);  // as the example says
   EXPECT_DOUBLE_EQ(example.classify.th_ch_m, 3.2);
   // The effective config echoed at start-up is itself a valid config file.
   std::ofstream(d / "echo.yaml") << DumpServerConfig(example);

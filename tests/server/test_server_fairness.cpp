@@ -6,11 +6,15 @@
 // 3 s bound is a liveness check with a wide margin (answered within ~10 uploads now; the old
 // limit of 1000 requests per connection took ~10 s here), not a speed target.
 #include <gtest/gtest.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "auth.hpp"
@@ -87,6 +91,41 @@ TEST(HttpFairness, BusyKeepAliveClientsDoNotStarveAnotherClient) {
   std::printf("third client answered after %.3f s (%d uploads so far)\n", waited_s,
               uploads_meanwhile);
   std::filesystem::remove_all(dir);
+}
+
+// A load run lost 2 POST /v1/sessions to a full listen queue: the system's httplib library
+// listens with a backlog of 5, and while its accept thread waits for the CPU further SYNs are
+// dropped. The server's listening socket must have the system's limit instead (the backlog of
+// a listening socket is what `ss` shows as its Send-Q).
+TEST(HttpFairness, ListenBacklogIsTheSystemLimit) {
+  log::SetLevel(log::Level::kWarn);
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("mds_backlog_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  ServerConfig config;
+  config.storage.database = (dir / "db.sqlite").string();
+  MapService service(config, OpenSqliteStorage(config.storage.database));
+  HttpServer http(service);
+  const int port = http.Bind("127.0.0.1", 0);
+  const std::string command = "ss -Hltn 'sport = :" + std::to_string(port) + "' 2>/dev/null";
+  std::string out;
+  if (FILE* p = ::popen(command.c_str(), "r")) {
+    char buf[512];
+    while (std::fgets(buf, sizeof buf, p)) out += buf;
+    ::pclose(p);
+  }
+  std::filesystem::remove_all(dir);
+  if (out.empty()) GTEST_SKIP() << "no `ss` (iproute2) to read the listen backlog with";
+  std::istringstream fields(out);
+  std::string state;
+  long queued = -1, backlog = -1;
+  fields >> state >> queued >> backlog;
+  ASSERT_EQ(state, "LISTEN") << out;
+  long somaxconn = SOMAXCONN;
+  std::ifstream("/proc/sys/net/core/somaxconn") >> somaxconn;
+  EXPECT_EQ(backlog, std::min<long>(SOMAXCONN, somaxconn)) << out;
+  EXPECT_GT(backlog, 5) << out;
 }
 
 }  // namespace

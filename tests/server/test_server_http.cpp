@@ -321,6 +321,22 @@ TEST_P(ServerHttpTest, TwoSessionsChangesAndRefresh) {
   auto bt = client_->Get("/v1/observed/tiles/0_0.bt", H(reader_));
   ASSERT_TRUE(bt && bt->status == 200);
   EXPECT_EQ(bt->body.rfind("# Octomap OcTree binary file", 0), 0u);
+  // Its ETag names the tile's state: asked again with it, the answer is 304 without a body;
+  // with another ETag, the same bytes (from the cache).
+  const std::string bt_etag = bt->get_header_value("ETag");
+  ASSERT_FALSE(bt_etag.empty());
+  EXPECT_EQ(bt->get_header_value("Cache-Control"), "no-cache");
+  httplib::Headers conditional = H(reader_);
+  conditional.emplace("If-None-Match", "\"other\", " + bt_etag);
+  auto bt_304 = client_->Get("/v1/observed/tiles/0_0.bt", conditional);
+  ASSERT_TRUE(bt_304);
+  EXPECT_EQ(bt_304->status, 304);
+  EXPECT_TRUE(bt_304->body.empty());
+  conditional = H(reader_);
+  conditional.emplace("If-None-Match", "\"other\"");
+  auto bt_again = client_->Get("/v1/observed/tiles/0_0.bt", conditional);
+  ASSERT_TRUE(bt_again && bt_again->status == 200);
+  EXPECT_EQ(bt_again->body, bt->body);
 
   // 4. Refresh everything changed with confidence >= 0.7 into version 2.
   auto [st4, job] = Call(client_->Post(

@@ -8,7 +8,8 @@
 //    from the stored ownership of its tile work items), then the job's worker is SIGKILLed
 //    holding a tile claim; the other worker takes the claim and the job over once their leases
 //    ran out and ends with the uninterrupted result; keyframes of another session uploaded
-//    while the process dies are all there if they were acknowledged.
+//    while the process dies are all there if they were acknowledged;
+//  - one process's cached observed octree is stale as soon as another process commits.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -255,10 +256,10 @@ void ImportBoxPrior(Deployment& d, httplib::Client& c, const fs::path& dir) {
   d.ImportPrior(c, file);
 }
 
-int64_t UploadBoxSession(Deployment& d, httplib::Client& c) {
+int64_t UploadBoxSession(Deployment& d, httplib::Client& c, double y_cam = 25.0) {
   const int64_t s = d.CreateSession(c, kBoxCamera);
   for (int seq = 0; seq < kBoxKeyframes; ++seq)
-    EXPECT_EQ(d.Put(c, s, seq, BoxKeyframe(seq, 25.0)), 201);
+    EXPECT_EQ(d.Put(c, s, seq, BoxKeyframe(seq, y_cam)), 201);
   return s;
 }
 
@@ -378,6 +379,56 @@ TEST_F(ScaleOutTest, TwoWorkersClassifyOneCommitsTilesAndAKilledWorkersClaimsAre
   for (int seq : acknowledged)
     EXPECT_EQ(d.Put(to_api, other, seq, BoxKeyframe(seq, 20.0)), 200) << seq;
   for (auto* p : {api.get(), helper.get()}) EXPECT_EQ(p->Kill(SIGTERM), 0);
+}
+
+// The served observed octree is cached per process (http.observed_cache_bytes) and keyed on
+// the stored tile state: a commit run by another process is seen by the very next request,
+// and a reader holding the current ETag is answered 304.
+TEST_F(ScaleOutTest, ACachedObservedOctreeIsStaleOnceAnotherProcessCommits) {
+  Deployment d("postgres", dir_ / "postgres", "", 10);
+  auto writer = d.Start();                // API + the worker that runs the commits
+  auto reader = d.Start({"--api-only"});  // serves (and caches) the octrees
+  httplib::Client w("127.0.0.1", writer->port()), r("127.0.0.1", reader->port());
+  ImportBoxPrior(d, w, dir_);
+  ASSERT_EQ(d.WaitJob(w, d.Commit(w, UploadBoxSession(d, w)))["state"], "succeeded");
+  const Json listing = d.Get(r, "/v1/changes/tiles?bbox=-1000,-1000,1000,1000&page_size=1000");
+  ASSERT_FALSE(listing["tiles"].empty());
+  const std::string path =
+      "/v1/observed/tiles/" + listing["tiles"][0]["tile"].get<std::string>() + ".bt";
+
+  auto first = r.Get(path, d.H(d.reader()));
+  ASSERT_TRUE(first && first->status == 200);
+  const std::string etag = first->get_header_value("ETag");
+  ASSERT_FALSE(etag.empty());
+  auto again = r.Get(path, d.H(d.reader()));
+  ASSERT_TRUE(again && again->status == 200);
+  EXPECT_EQ(again->body, first->body);
+  EXPECT_EQ(again->get_header_value("ETag"), etag);
+  httplib::Headers conditional = d.H(d.reader());
+  conditional.emplace("If-None-Match", etag);
+  auto unchanged = r.Get(path, conditional);
+  ASSERT_TRUE(unchanged && unchanged->status == 304);
+  EXPECT_TRUE(unchanged->body.empty());
+
+  // A second drive, committed by the other process.
+  ASSERT_EQ(d.WaitJob(w, d.Commit(w, UploadBoxSession(d, w, 20.0)))["state"], "succeeded");
+  auto after = r.Get(path, conditional);  // the old ETag: the tile changed, so 200
+  ASSERT_TRUE(after && after->status == 200);
+  EXPECT_NE(after->body, first->body);
+  EXPECT_NE(after->get_header_value("ETag"), etag);
+  auto from_writer = w.Get(path, d.H(d.reader()));
+  ASSERT_TRUE(from_writer && from_writer->status == 200);
+  EXPECT_EQ(after->body, from_writer->body);
+  EXPECT_EQ(after->get_header_value("ETag"), from_writer->get_header_value("ETag"));
+
+  auto metrics = r.Get("/metrics");
+  ASSERT_TRUE(metrics && metrics->status == 200);
+  EXPECT_NE(metrics->body.find("mapdelta_observed_cache_requests_total{result=\"hit\"} 1\n"),
+            std::string::npos)
+      << metrics->body;
+  EXPECT_NE(metrics->body.find("mapdelta_observed_cache_requests_total{result=\"miss\"} 2\n"),
+            std::string::npos);
+  for (auto* p : {writer.get(), reader.get()}) EXPECT_EQ(p->Kill(SIGTERM), 0);
 }
 
 }  // namespace

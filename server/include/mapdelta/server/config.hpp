@@ -17,6 +17,9 @@ struct HttpConfig {
   int64_t max_prior_bytes = int64_t{1} << 30;  // a prior map import
   int read_timeout_s = 30;
   int write_timeout_s = 60;
+  // The served observed octrees (GET /v1/observed/tiles/{t}.bt) kept per tile state, bytes;
+  // least recently used out. 0 = off (every request merges the tile's session octrees).
+  int64_t observed_cache_bytes = int64_t{64} << 20;
   // The web map's static files, served at /: "auto" (next to an installed binary in
   // ../share/mapdelta/web, or the source tree's web/dist for a binary in its build tree),
   // "off", or a folder. --web-root overrides it.

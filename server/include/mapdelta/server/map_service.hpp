@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -21,6 +22,8 @@
 namespace mapdelta::server {
 
 using Json = nlohmann::json;
+
+class ObservedTileCache;
 
 struct FilePayload {
   Bytes bytes;
@@ -85,7 +88,13 @@ class MapService {
   FilePayload GetTileChanges(const std::string& tile, const std::string& format,
                              const std::string& kind, double min_confidence, int64_t min_support,
                              const std::optional<std::string>& cluster_states = std::nullopt);
-  FilePayload GetObservedTile(const std::string& tile);
+  // The tile's observed area: the merge of its sessions' octrees cropped to the tile (.bt), from
+  // the ObservedTileCache when that tile state was served before. Its ETag names the stored tile
+  // state; client_has(etag) true (the request's If-None-Match) returns the payload without
+  // bytes and without merging (the adapter answers 304).
+  FilePayload GetObservedTile(const std::string& tile,
+                              const std::function<bool(const std::string&)>& client_has = {});
+  ObservedCacheStats ObservedCacheStatistics() const;
 
   // --- change clusters and their feed (issue #20; change_cluster_store.hpp, change_lifecycle.hpp)
   // Clusters whose state changed after the position `since` (a previous answer's "next"; absent
@@ -145,6 +154,7 @@ class MapService {
   std::condition_variable wake_;
   std::mutex frame_mutex_;
   std::optional<MapFrame> frame_;  // cached once stored: a map's frame never changes
+  std::unique_ptr<ObservedTileCache> observed_cache_;  // http.observed_cache_bytes
 };
 
 }  // namespace mapdelta::server
