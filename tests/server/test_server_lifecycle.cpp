@@ -197,7 +197,26 @@ TEST_P(Lifecycle, ConfirmedByTwoVehiclesAppliedByRefreshExpiredWhenThePlaceIsBac
   EXPECT_GT(ClusterAt(kBoxA, "new"), a);
 }
 
+// With voxel consensus (the default) two vehicles that see C's place free outvote the one that
+// filled it: its voxels leave the global cloud, the new points are no longer detected, and the
+// candidate is rejected for that. Without it the points stay and the two contradict them.
+TEST_P(Lifecycle, AFilledPlaceTwoVehiclesSeeFreeIsNoLongerDetectedAndItsCandidateRejected) {
+  Drive("car-1", ChangedScene(), 25.0);
+  const int64_t c = ClusterAt(kBoxC, "new");
+  ASSERT_GT(c, 0);
+  Drive("car-2", PriorScene(), 25.0);
+  Drive("car-3", PriorScene(), 24.0);
+  const Json rejected = service_->GetCluster(c);
+  EXPECT_EQ(rejected["state"], "rejected") << rejected.dump(1);
+  EXPECT_NE(rejected["transitions"].back()["cause"].get<std::string>().find("no longer detects it"),
+            std::string::npos)
+      << rejected.dump(1);
+}
+
 TEST_P(Lifecycle, ContradictedCandidatesAreRejectedAndAnAdminDecidesByHand) {
+  config_.classify.voxel_consensus = false;  // keep C's voxels: the evidence path is tested
+  Open();
+  if (GetParam() == "memory") ImportPrior();  // a new in-memory storage is empty
   const int64_t s1 = Drive("car-1", ChangedScene(), 25.0);
   const int64_t c = ClusterAt(kBoxC, "new"), a = ClusterAt(kBoxA, "removed");
   ASSERT_GT(c, 0);
