@@ -24,6 +24,9 @@ usage: bash tools/reproduce-paper.sh --out DIR [options]
   --thf-point M       th_f of the operating point (Table, Fig. 6 analogue; default 20)
   --free-space RULE   mapdelta-detect's rule for the free space behind removed points: paper or
                       confident (default: mapdelta-detect's default; see its --help)
+  --compare-free-space RULE
+                      also detect at the operating point with RULE on the same keyframes (the
+                      client does not depend on the rule): run.json's rule_compare
   --crowd LIST        numbers of uploads for the crowdsourcing curve (default 1,2,4,8; 'none' skips)
   --crowd-preset P    preset of the crowdsourcing scene (default tiny: 4 min; paper: about 40 min)
   --crowd-sequence S  sequence(s) the uploads drive, comma-separated, one scene (default S1_01;
@@ -51,7 +54,7 @@ EOF2
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 out="" preset=paper sequences="" noises=small,big trials=5 city_seed=1 thf_list=5,10,15,20,25,30
-bounds=128,0 thf_point=20 free_space="" crowd=1,2,4,8 crowd_preset=tiny crowd_seq=S1_01 crowd_noise=small crowd_replay=""
+bounds=128,0 thf_point=20 free_space="" compare_free_space="" crowd=1,2,4,8 crowd_preset=tiny crowd_seq=S1_01 crowd_noise=small crowd_replay=""
 sweep_trials="" data="" build_dir=build sim_override="" keep_data=0 nice_cmd="nice -n 10" report_only=0
 declare -A dataset_override=()
 while [ $# -gt 0 ]; do
@@ -67,6 +70,7 @@ while [ $# -gt 0 ]; do
     --bounds) bounds=$2; shift 2 ;;
     --thf-point) thf_point=$2; shift 2 ;;
     --free-space) free_space=$2; shift 2 ;;
+    --compare-free-space) compare_free_space=$2; shift 2 ;;
     --crowd) crowd=$2; shift 2 ;;
     --crowd-preset) crowd_preset=$2; shift 2 ;;
     --crowd-sequence) crowd_seq=$2; shift 2 ;;
@@ -98,6 +102,7 @@ for v in ${noises//,/ } $crowd_noise; do
   case "$v" in none|small|big) ;; *) echo "reproduce-paper: noise '$v': expected none, small or big" >&2; exit 2 ;; esac
 done
 case "$free_space" in ""|paper|confident) ;; *) echo "reproduce-paper: --free-space '$free_space': expected paper or confident" >&2; exit 2 ;; esac
+case "$compare_free_space" in ""|paper|confident) ;; *) echo "reproduce-paper: --compare-free-space '$compare_free_space': expected paper or confident" >&2; exit 2 ;; esac
 case "$preset" in paper|tiny) ;; *) echo "reproduce-paper: --preset '$preset': expected paper or tiny" >&2; exit 2 ;; esac
 if [ -z "$sequences" ]; then
   if [ "$preset" = paper ]; then sequences=S1_01,S1_02,S2_01,S2_02,S1_mirror,S1_dark; else sequences=S1_01,S2_01; fi
@@ -184,6 +189,11 @@ if [ "$report_only" = 0 ]; then
             say "  th_f $t m, bound $b px: $(jq -c '.paper | {R_new, P_new, R_rm, P_rm} | map_values(. * 1000 | round / 1000)' "$run/detect/b$b-thf$t/changes.json")"
           done
         done
+        if [ -n "$compare_free_space" ]; then
+          free_space=$compare_free_space detect_and_eval "$ds" "$seq" "$run/client/keyframes" \
+            "$run/detect-rule-$compare_free_space" "$thf_point" "$operating_bound"
+          say "  rule $compare_free_space on the same keyframes: $(jq -c '.paper | {R_new, P_new, R_rm, P_rm} | map_values(. * 1000 | round / 1000)' "$run/detect-rule-$compare_free_space/changes.json")"
+        fi
         bash "$root/tools/repro/vio_keyframes.sh" "$run/client/keyframes" "$run/client/vio.txt" \
           "$ds/sequences/$seq/mav0/cam0/sensor.yaml" "$run/keyframes-vio"
         detect_and_eval "$ds" "$seq" "$run/keyframes-vio" "$run/detect-vio" "$thf_point" "$operating_bound"

@@ -33,6 +33,8 @@ ConfigSchema Schema(ClientConfig& c) {
       .Field("keyframes.min_rotation_deg", &k.min_rotation_deg, 0, 360)
       .Field("keyframes.max_interval_s", &k.max_interval_s, 1e-3, 1e6)
       .Field("local_cloud.keyframes", &l.keyframes, 1, 1000)
+      .Field("local_cloud.min_points", &l.min_points, 0, 10000000)
+      .Field("local_cloud.max_keyframes", &l.max_keyframes, 1, 1000)
       .Field("local_cloud.voxel_m", &l.voxel_m, 1e-3, 100)
       .Field("local_cloud.max_depth_m", &l.max_depth_m, 1e-3, 1e6)
       .Field("local_cloud.pixel_stride", &l.pixel_stride, 1, 64)
@@ -69,6 +71,12 @@ ConfigSchema Schema(ClientConfig& c) {
       .Field("upload.give_up_after_s", &u.give_up_after_s, 0, 1e7)
       .Field("upload.depth_scale", &u.depth_scale, 1, 1e6)
       .Rule([&s] { return s.block_size % 2 == 0 ? "stereo.block_size: must be odd" : ""; })
+      .Rule([&l] {
+        return l.min_points > 0 && l.max_keyframes < l.keyframes
+                   ? "local_cloud.max_keyframes: must be >= local_cloud.keyframes when "
+                     "local_cloud.min_points is set"
+                   : "";
+      })
       .Rule([&u] {
         return u.retry_max_s < u.retry_initial_s
                    ? "upload.retry_max_s: must be >= upload.retry_initial_s"

@@ -173,19 +173,11 @@ class Backend {
   // Local cloud of the last N keyframes anchored at k, registered to the prior.
   void Register(size_t k) {
     if (!registrar_) return;
-    const size_t n = static_cast<size_t>(config_.local_cloud.keyframes);
-    std::vector<LocalCloudFrame> frames;
-    for (size_t j = k + 1 - n; j <= k; ++j) {
-      if (j < first_unemitted_) continue;  // already handed downstream (only with odd configs)
-      const size_t q = j - first_unemitted_;
-      frames.push_back({fusion_.OdometryPose(j),
-                        registration_depth_[q] ? &*registration_depth_[q] : &filtered_[q]});
-    }
+    size_t cloud_keyframes = 0;
     PointCloud local;
     {
       StageTimer::Scope t(timer_, "3 local cloud");
-      local = BuildLocalCloud(frames, fusion_.OdometryPose(k), rig_.left, rig_.T_body_cam0,
-                              config_.local_cloud);
+      local = GrowLocalCloud(k, &cloud_keyframes);
     }
     RegistrationOutcome r;
     const auto& rc = config_.registration;
@@ -220,7 +212,8 @@ class Backend {
                        : relocalize ? " (re-localization)"
                                     : "";
     result_->registrations.push_back({fusion_.t_ns(k), k, r.accepted, r.reason, r.T_map_body,
-                                      r.covariance, r.fitness_m, r.inlier_fraction});
+                                      r.covariance, r.fitness_m, r.inlier_fraction,
+                                      cloud_keyframes, local.size()});
     if (!r.accepted) {
       ++result_->registrations_rejected;
       ++rejected_in_row_;
@@ -258,6 +251,45 @@ class Backend {
                        &covariances);
     }
     EmitFinal(end, covariances);
+  }
+
+  // The local cloud of keyframes k-n+1..k, n = local_cloud.keyframes; when it has fewer than
+  // local_cloud.min_points points (sparse stereo depth: a dark scene) it grows back over earlier
+  // keyframes still buffered in k's odometry segment, up to local_cloud.max_keyframes. Why not
+  // a lower inlier floor instead: 50 inliers is what keeps a 6-DoF solve from fitting noise,
+  // while more keyframes of the same segment add real structure at the cost of some odometry
+  // drift inside the cloud (1-2 % of the 10-20 m it spans).
+  PointCloud GrowLocalCloud(size_t k, size_t* used) const {
+    const auto& lc = config_.local_cloud;
+    const size_t step = static_cast<size_t>(lc.keyframes);
+    const size_t most = std::max(step, static_cast<size_t>(lc.max_keyframes));
+    size_t n = step;
+    PointCloud local = LocalCloudOf(k, n);
+    while (local.size() < static_cast<size_t>(lc.min_points) && n < most) {
+      const size_t wider = std::min(most, n + step);
+      // Only keyframes still buffered (not yet emitted) and of k's segment.
+      size_t first = k + 1 - std::min(k + 1, wider);
+      first = std::max(first, first_unemitted_);
+      while (first < k && fusion_.SegmentOf(first) != fusion_.SegmentOf(k)) ++first;
+      if (k + 1 - first <= n) break;  // nothing more to add
+      n = k + 1 - first;
+      local = LocalCloudOf(k, n);
+    }
+    *used = n;
+    return local;
+  }
+
+  // The local cloud of keyframes k-n+1..k (those still buffered) in k's odometry frame.
+  PointCloud LocalCloudOf(size_t k, size_t n) const {
+    std::vector<LocalCloudFrame> frames;
+    for (size_t j = k + 1 - std::min(k + 1, n); j <= k; ++j) {
+      if (j < first_unemitted_) continue;  // already handed downstream (only with odd configs)
+      const size_t q = j - first_unemitted_;
+      frames.push_back({fusion_.OdometryPose(j),
+                        registration_depth_[q] ? &*registration_depth_[q] : &filtered_[q]});
+    }
+    return BuildLocalCloud(frames, fusion_.OdometryPose(k), rig_.left, rig_.T_body_cam0,
+                           config_.local_cloud);
   }
 
   // Hypotheses for keyframe k of a segment not yet anchored: the segment start at the

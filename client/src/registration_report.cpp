@@ -56,7 +56,7 @@ void WriteRegistrationsCsv(const std::string& path,
   std::ofstream out(path);
   if (!out) throw Error(ErrorCode::kIo, path + ": cannot write");
   out << "t_ns,keyframe,accepted,fitness_m,inlier_fraction,x,y,z,qx,qy,qz,qw,"
-         "sigma_rx,sigma_ry,sigma_rz,sigma_tx,sigma_ty,sigma_tz,reason\n";
+         "sigma_rx,sigma_ry,sigma_rz,sigma_tx,sigma_ty,sigma_tz,cloud_keyframes,cloud_points,reason\n";
   out << std::setprecision(9);
   for (const auto& r : records) {
     const Eigen::Quaterniond q(r.T_map_body.linear());
@@ -65,6 +65,7 @@ void WriteRegistrationsCsv(const std::string& path,
         << r.inlier_fraction << ',' << p.x() << ',' << p.y() << ',' << p.z() << ',' << q.x() << ','
         << q.y() << ',' << q.z() << ',' << q.w();
     for (int i = 0; i < 6; ++i) out << ',' << std::sqrt(std::max(0.0, r.covariance(i, i)));
+    out << ',' << r.cloud_keyframes << ',' << r.cloud_points;
     std::string reason = r.reason;
     for (char& ch : reason) {
       if (ch == ',' || ch == '\n') ch = ';';

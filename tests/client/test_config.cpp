@@ -45,6 +45,19 @@ TEST(ClientConfig, ReportsAllProblemsAtOnce) {
   EXPECT_THROW(ParseClientConfig("[1, 2]", "list.yaml"), Error);
 }
 
+TEST(ClientConfig, GrowingLocalCloudNeedsRoomToGrow) {
+  EXPECT_NO_THROW(ParseClientConfig("local_cloud:\n  keyframes: 8\n", "x"));
+  try {
+    ParseClientConfig("local_cloud:\n  min_points: 500\n  max_keyframes: 3\n", "grow.yaml");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("local_cloud.max_keyframes: must be >= "
+                                         "local_cloud.keyframes when local_cloud.min_points is set"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(ClientConfig, EffectiveConfigRoundTrips) {
   ClientConfig c =
       ParseClientConfig("fusion:\n  huber_delta: 3.5\nupload:\n  vehicle_id: car-7\n", "x");

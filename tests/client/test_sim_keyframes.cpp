@@ -182,6 +182,43 @@ TEST(SimKeyframes, DecodeAheadPreparesEveryFrameInOrderAndChangesNoResult) {
   }
 }
 
+// Sparse depth (the dark scene): a local cloud under local_cloud.min_points grows back over the
+// earlier buffered keyframes, and only then; its keyframe and point counts are recorded.
+TEST(SimKeyframes, SparseLocalCloudGrowsOverEarlierKeyframes) {
+  const EurocSequence seq = ReadEurocSequence(kSequence);
+  auto run = [&](int min_points) {
+    ClientConfig config;
+    config.keyframes.min_translation_m = 0.5;
+    config.local_cloud.keyframes = 2;  // clouds at keyframes 1 and 3
+    config.local_cloud.max_keyframes = 4;
+    config.local_cloud.min_points = min_points;
+    TrajectoryOdometrySource odometry(seq.groundtruth);
+    FilePriorSource prior(kSimDir + "prior_original_crop.pcd", config.registration.prior_voxel_m);
+    PipelineInputs in = TruthInputs(kSequence, &odometry);
+    in.prior = &prior;
+    SE3 truth0;
+    EXPECT_TRUE(InterpolateAt(seq.groundtruth, seq.StereoFrames()[0].t_ns, &truth0));
+    in.initial_T_map_body = truth0;
+    return RunPipeline(config, in);
+  };
+  const PipelineResult dense = run(0);
+  ASSERT_EQ(dense.registrations.size(), 2u);
+  for (const auto& r : dense.registrations) EXPECT_EQ(r.cloud_keyframes, 2u);
+  const size_t two_keyframes = dense.registrations[1].cloud_points;
+  ASSERT_GT(two_keyframes, 100u);
+
+  // Asking for more points than two keyframes give: the cloud at keyframe 1 has nothing earlier
+  // to add; the one at keyframe 3 takes keyframes 0..3.
+  const PipelineResult sparse = run(static_cast<int>(two_keyframes) + 1);
+  ASSERT_EQ(sparse.registrations.size(), 2u);
+  EXPECT_EQ(sparse.registrations[0].cloud_keyframes, 2u);
+  EXPECT_EQ(sparse.registrations[0].cloud_points, dense.registrations[0].cloud_points);
+  EXPECT_EQ(sparse.registrations[1].keyframe, 3u);
+  EXPECT_EQ(sparse.registrations[1].cloud_keyframes, 4u);
+  EXPECT_GT(sparse.registrations[1].cloud_points, two_keyframes);
+  EXPECT_TRUE(sparse.registrations[1].accepted) << sparse.registrations[1].reason;
+}
+
 TEST(SimKeyframes, UnreadableFrameStopsThePipelineNamingTheFile) {
   const auto dir = mapdelta::testing::FreshTempDir("mapdelta_client_bad_frame");
   std::filesystem::copy(kSequence, dir / "seq", std::filesystem::copy_options::recursive);

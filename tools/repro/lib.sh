@@ -138,14 +138,20 @@ run_json() {
     sweep=$(jq -c --argjson b "$b" --argjson t "$t" --slurpfile c "$d/changes.json" \
       --argjson s "$(cat "$d/time_s")" --slurpfile sum "$d/summary.json" '. + [{free_ray_bound_px: $b, th_f_m: $t, free_space: ($sum[0].free_space // "paper"), detect_s: $s, paper: $c[0].paper, reference_variant: $c[0].reference_variant}]' <<<"$sweep")
   done
-  local vio="null"
+  local vio="null" rule="null" d_rule
   [ -f "$run/detect-vio/changes.json" ] && vio=$(jq -c '{paper, reference_variant}' "$run/detect-vio/changes.json")
+  # The operating point once more with another free-space rule (--compare-free-space).
+  for d_rule in "$run"/detect-rule-*; do
+    [ -f "$d_rule/changes.json" ] || continue
+    rule=$(jq -c --slurpfile sum "$d_rule/summary.json" --argjson s "$(cat "$d_rule/time_s")" \
+      '{free_space: ($sum[0].free_space // "paper"), detect_s: $s, paper, reference_variant}' "$d_rule/changes.json")
+  done
   jq -n --arg seq "$seq" --arg noise "$noise" --argjson k "$k" --slurpfile resets "$run/resets.json" \
     --slurpfile av "$run/ate_vio.json" --slurpfile af "$run/ate_fused.json" \
-    --argjson timing "$(timing_json "$run/client")" --argjson sweep "$sweep" --argjson vio "$vio" \
+    --argjson timing "$(timing_json "$run/client")" --argjson sweep "$sweep" --argjson vio "$vio" --argjson rule "$rule" \
     --arg vio_params "$vio_point" --argjson full_sweep "$5" \
     --arg commit "$run_commit" --arg cpu "$run_cpu" --argjson nproc "$(nproc)" \
     '{sequence: $seq, noise: $noise, trial: $k, commit: $commit, machine: {cpu: $cpu, nproc: $nproc}, full_sweep: $full_sweep,
       ate_vio: ($av[0] | {rmse, std, max, mean, pairs}), ate_fused: ($af[0] | {rmse, std, max, mean, pairs}),
-      client_timing: $timing, sweep: $sweep, vio_pose_changes: $vio, vio_pose_params: $vio_params} + $resets[0]'
+      client_timing: $timing, sweep: $sweep, rule_compare: $rule, vio_pose_changes: $vio, vio_pose_params: $vio_params} + $resets[0]'
 }

@@ -54,6 +54,8 @@ struct RegistrationRecord {
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
   double fitness_m = 0;
   double inlier_fraction = 0;
+  size_t cloud_keyframes = 0;  // keyframes in the local cloud (more than configured if sparse)
+  size_t cloud_points = 0;
 };
 
 struct StageTiming {
