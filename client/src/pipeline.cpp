@@ -212,8 +212,8 @@ class Backend {
                        : relocalize ? " (re-localization)"
                                     : "";
     result_->registrations.push_back({fusion_.t_ns(k), k, r.accepted, r.reason, r.T_map_body,
-                                      r.covariance, r.fitness_m, r.inlier_fraction,
-                                      cloud_keyframes, local.size()});
+                                      r.covariance, r.fitness_m, r.inlier_fraction, cloud_keyframes,
+                                      local.size()});
     if (!r.accepted) {
       ++result_->registrations_rejected;
       ++rejected_in_row_;

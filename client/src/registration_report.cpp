@@ -56,7 +56,8 @@ void WriteRegistrationsCsv(const std::string& path,
   std::ofstream out(path);
   if (!out) throw Error(ErrorCode::kIo, path + ": cannot write");
   out << "t_ns,keyframe,accepted,fitness_m,inlier_fraction,x,y,z,qx,qy,qz,qw,"
-         "sigma_rx,sigma_ry,sigma_rz,sigma_tx,sigma_ty,sigma_tz,cloud_keyframes,cloud_points,reason\n";
+         "sigma_rx,sigma_ry,sigma_rz,sigma_tx,sigma_ty,sigma_tz,cloud_keyframes,cloud_points,"
+         "reason\n";
   out << std::setprecision(9);
   for (const auto& r : records) {
     const Eigen::Quaterniond q(r.T_map_body.linear());

@@ -51,9 +51,10 @@ TEST(ClientConfig, GrowingLocalCloudNeedsRoomToGrow) {
     ParseClientConfig("local_cloud:\n  min_points: 500\n  max_keyframes: 3\n", "grow.yaml");
     FAIL() << "expected an error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("local_cloud.max_keyframes: must be >= "
-                                         "local_cloud.keyframes when local_cloud.min_points is set"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("local_cloud.max_keyframes: must be >= "
+                                   "local_cloud.keyframes when local_cloud.min_points is set"),
+        std::string::npos)
         << e.what();
   }
 }
