@@ -14,26 +14,14 @@
 #include <utility>
 #include <vector>
 
+#include "support/rss.hpp"
+
 namespace mapdelta::bench {
 
 struct RssSample {
   double t_s = 0;
   int64_t rss_kib = 0;
 };
-
-inline int64_t ReadRssKib(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  while (in >> key) {
-    if (key == "VmRSS:") {
-      int64_t kib = 0;
-      in >> kib;
-      return kib;
-    }
-    in.ignore(4096, '\n');
-  }
-  return -1;
-}
 
 class RssSampler {
  public:
@@ -57,7 +45,7 @@ class RssSampler {
     while (!stop_) {
       pid_t pid = 0;
       std::ifstream(pid_file_) >> pid;
-      const int64_t kib = pid > 0 ? ReadRssKib(pid) : -1;
+      const int64_t kib = pid > 0 ? mapdelta::testing::ReadRssKib(pid) : -1;
       const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (kib >= 0) {
         std::lock_guard<std::mutex> lock(mutex_);

@@ -3,32 +3,21 @@
 // (the pattern of a commit job's decoded octrees and clouds), stays in the process's resident
 // set until trimmed; trimmed, it leaves. Measured on this process's VmRSS.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "heap_trim.hpp"
+#include "support/rss.hpp"
 
 namespace mapdelta::server {
 namespace {
 
-int64_t RssKib() {
-  std::ifstream in("/proc/self/status");
-  std::string key;
-  while (in >> key) {
-    if (key == "VmRSS:") {
-      int64_t kib = 0;
-      in >> kib;
-      return kib;
-    }
-    in.ignore(4096, '\n');
-  }
-  return -1;
-}
+int64_t RssKib() { return mapdelta::testing::ReadRssKib(getpid()); }
 
 TEST(HeapTrim, FreedBlocksOfAFinishedThreadLeaveTheResidentSet) {
 #ifndef __GLIBC__
