@@ -90,7 +90,9 @@ struct PriorRegistrar::Impl {
     out.accepted = decision.accepted;
     out.reason = decision.reason;
     out.T_map_body = result.T_target_source;
-    out.covariance = result.covariance;
+    // Correlated cloud errors do not average out over more points (see covariance_full_points).
+    out.covariance = result.covariance * std::max(1.0, static_cast<double>(result.num_inliers) /
+                                                           config.covariance_full_points);
     out.fitness_m = result.fitness_m;
     out.inlier_fraction = result.num_source_points == 0
                               ? 0.0

@@ -2,10 +2,12 @@
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "mapdelta/common/error.hpp"
 
@@ -17,6 +19,33 @@ cv::Mat AsMat(const GrayImage& image) {
 }
 
 }  // namespace
+
+double EstimateImageNoise(const GrayImage& image) {
+  if (image.width < 3 || image.height < 3) return 0.0;
+  cv::Mat pixels;
+  AsMat(image).convertTo(pixels, CV_32F);
+  // Laplacian on the 8 neighbours minus the one on the 4: weights 1 -2 1 / -2 4 -2 / 1 -2 1,
+  // whose squares sum to 36, so white noise of sigma s comes out with sigma 6 s.
+  const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
+  cv::Mat response;
+  cv::filter2D(pixels, response, CV_32F, kernel);
+  std::vector<float> magnitudes;
+  magnitudes.reserve(static_cast<size_t>(image.width - 2) * (image.height - 2));
+  for (int v = 1; v + 1 < image.height; ++v) {
+    const float* row = response.ptr<float>(v);
+    for (int u = 1; u + 1 < image.width; ++u) magnitudes.push_back(std::abs(row[u]));
+  }
+  const auto median = magnitudes.begin() + static_cast<ptrdiff_t>(magnitudes.size() / 2);
+  std::nth_element(magnitudes.begin(), median, magnitudes.end());
+  constexpr double kMedianOfAbsNormal = 0.6745;  // median |x| of a standard normal
+  return *median / (6.0 * kMedianOfAbsNormal);
+}
+
+double DenoiseSigmaFor(double noise) {
+  constexpr double kNoiseFloor = 2.0, kSigmaPerGreyLevel = 0.5, kMaxSigma = 2.0, kMinSigma = 0.5;
+  const double sigma = std::min(kMaxSigma, kSigmaPerGreyLevel * (noise - kNoiseFloor));
+  return sigma >= kMinSigma ? sigma : 0.0;
+}
 
 struct StereoDepth::Impl {
   StereoConfig config;
@@ -93,7 +122,16 @@ DisparityImage StereoDepth::ComputeDisparity(const GrayImage& left, const GrayIm
       c.min_disparity, num_disp, bs, 8 * bs * bs, 32 * bs * bs, c.disp12_max_diff, c.pre_filter_cap,
       c.uniqueness_ratio, c.speckle_window_size, c.speckle_range, cv::StereoSGBM::MODE_SGBM_3WAY);
   cv::Mat fixed;  // CV_16S, disparity * 16 (4 fractional bits: the subpixel estimate)
-  sgbm->compute(AsMat(left), AsMat(right), fixed);
+  const double sigma =
+      c.denoise_sigma_px < 0 ? DenoiseSigmaFor(EstimateImageNoise(left)) : c.denoise_sigma_px;
+  if (sigma > 0) {
+    cv::Mat left_smooth, right_smooth;
+    cv::GaussianBlur(AsMat(left), left_smooth, cv::Size(), sigma);
+    cv::GaussianBlur(AsMat(right), right_smooth, cv::Size(), sigma);
+    sgbm->compute(left_smooth, right_smooth, fixed);
+  } else {
+    sgbm->compute(AsMat(left), AsMat(right), fixed);
+  }
 
   DisparityImage out{left.width, left.height, {}};
   out.disparity_px.assign(static_cast<size_t>(left.width) * left.height,

@@ -223,6 +223,31 @@ TEST_F(PriorRegistrationTest, BadGuessIsRejectedNotAccepted) {
   EXPECT_NE(r.reason, "accepted");
 }
 
+// Beyond covariance_full_points inliers the covariance is held as if the cloud had that many:
+// the same registration with the limit above its inlier count gets GICP's covariance, with the
+// limit at a quarter of it four times that (same pose: only the reported uncertainty differs).
+TEST_F(PriorRegistrationTest, CovarianceStopsShrinkingBeyondTheFullPointCount) {
+  FilePriorSource prior(path_, 0.4);
+  const SE3 truth = Pose(10.0, 0.0, 90.0);
+  const PointCloud local = LocalCloud(scene_, truth, 3);
+  const SE3 guess = Offset(truth, 0.5, -0.3, 1.0);
+  RegistrationConfig unlimited;
+  unlimited.covariance_full_points = 1e9;
+  PriorRegistrar unlimited_registrar(unlimited, &prior);
+  const RegistrationOutcome a = unlimited_registrar.Register(local, guess);
+  ASSERT_TRUE(a.accepted) << a.reason;
+  const double inliers = a.inlier_fraction * static_cast<double>(a.source_points);
+  ASSERT_GT(inliers, 400.0);
+  RegistrationConfig limited;
+  limited.covariance_full_points = inliers / 4.0;
+  PriorRegistrar limited_registrar(limited, &prior);
+  const RegistrationOutcome b = limited_registrar.Register(local, guess);
+  ASSERT_TRUE(b.accepted) << b.reason;
+  EXPECT_LT((a.T_map_body.translation() - b.T_map_body.translation()).norm(), 1e-9);
+  EXPECT_TRUE(b.covariance.isApprox(4.0 * a.covariance, 1e-3))
+      << "ratio " << b.covariance(3, 3) / a.covariance(3, 3);
+}
+
 TEST_F(PriorRegistrationTest, RegistrationOfNearbyGuessAndNoPriorReason) {
   FilePriorSource prior(path_, 0.4);
   PriorRegistrar registrar(RegistrationConfig{}, &prior);
