@@ -114,7 +114,10 @@ TEST(SimKeyframes, PipelineStartsFromARoughGuessAndWritesKeyframes) {
     const double vio = (r.vio_T_map_body[k].T.translation() - truth.translation()).norm();
     std::printf("keyframe %zu: fused error %.3f m %.2f deg (guess-anchored odometry %.3f m)\n", k,
                 dt, dr, vio);
-    EXPECT_LT(dt, 0.4);
+    // Measured 0.36-0.41 m over the five keyframes (0.35-0.40 m before the registration
+    // covariance stopped shrinking beyond 2000 inliers: the one start-up registration now
+    // weighs a little less against the 2 m guess).
+    EXPECT_LT(dt, 0.45);
     EXPECT_LT(dr, 1.5);
   }
   const KeyframeFolder folder = ReadKeyframeFolder(out.string());

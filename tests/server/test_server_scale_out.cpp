@@ -16,6 +16,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <thread>
 
@@ -325,7 +326,6 @@ TEST_F(ScaleOutTest, TwoWorkersClassifyOneCommitsTilesAndAKilledWorkersClaimsAre
        ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  auto helper = d.Start({"--worker-only"});  // the job is taken: it helps with the tiles
   const std::unique_ptr<server::Storage> db = d.OpenStorage();
 
   // A second vehicle uploads through both API processes while the worker process dies.
@@ -342,9 +342,21 @@ TEST_F(ScaleOutTest, TwoWorkersClassifyOneCommitsTilesAndAKilledWorkersClaimsAre
       acknowledged.push_back(seq);
     }
   });
+  // A failed assertion below must not leave the thread joinable (std::terminate).
+  const auto join_uploader = [&] {
+    stop = true;
+    if (uploader.joinable()) uploader.join();
+  };
+  struct JoinOnExit {
+    std::function<void()> join;
+    ~JoinOnExit() { join(); }
+  } const join_on_exit{join_uploader};
 
+  // The doomed worker alone until it is caught holding claims with tiles left: with a second
+  // worker already running, a loaded machine could finish every tile between two looks.
   const std::string doomed_id = StopWhileHoldingTileClaims(*db, job, doomed->pid());
   ASSERT_FALSE(doomed_id.empty()) << "the commit's tiles were never seen half classified";
+  auto helper = d.Start({"--worker-only"});  // the job is taken: it helps with the tiles
   // While the job's worker is stopped, the helper classifies the unclaimed tiles.
   for (int i = 0; i < 600 && TilesDoneBy(*db, job).size() < 2; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -356,8 +368,7 @@ TEST_F(ScaleOutTest, TwoWorkersClassifyOneCommitsTilesAndAKilledWorkersClaimsAre
   doomed->Kill(SIGKILL);
 
   const Json done = d.WaitJob(to_api, job);  // the helper takes the job after its lease
-  stop = true;
-  uploader.join();
+  join_uploader();
   ASSERT_EQ(done["state"], "succeeded") << done.dump();
   EXPECT_GE(done["attempts"].get<int>(), 2) << done.dump();
   EXPECT_EQ(d.Snapshot(to_api), reference);
