@@ -122,8 +122,11 @@ DisparityImage StereoDepth::ComputeDisparity(const GrayImage& left, const GrayIm
       c.min_disparity, num_disp, bs, 8 * bs * bs, 32 * bs * bs, c.disp12_max_diff, c.pre_filter_cap,
       c.uniqueness_ratio, c.speckle_window_size, c.speckle_range, cv::StereoSGBM::MODE_SGBM_3WAY);
   cv::Mat fixed;  // CV_16S, disparity * 16 (4 fractional bits: the subpixel estimate)
+  // At reference_width, scaled with the image like the disparity range: what smoothing costs
+  // at depth edges grows with its size against the structures, which scale with the image.
   const double sigma =
-      c.denoise_sigma_px < 0 ? DenoiseSigmaFor(EstimateImageNoise(left)) : c.denoise_sigma_px;
+      (c.denoise_sigma_px < 0 ? DenoiseSigmaFor(EstimateImageNoise(left)) : c.denoise_sigma_px) *
+      left.width / c.reference_width;
   if (sigma > 0) {
     cv::Mat left_smooth, right_smooth;
     cv::GaussianBlur(AsMat(left), left_smooth, cv::Size(), sigma);

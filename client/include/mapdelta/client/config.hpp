@@ -20,7 +20,7 @@ struct StereoConfig {
   double max_depth_m = 50.0;  // depths beyond this are dropped
   // Gaussian smoothing of both images before matching (stereo_depth.hpp DenoiseSigmaFor):
   // < 0 = sized from each keyframe's measured image noise (none on a clean camera), 0 = off,
-  // > 0 = this sigma in pixels.
+  // > 0 = this sigma in pixels; either at reference_width, scaled with the image width.
   double denoise_sigma_px = -1.0;
 };
 
