@@ -12,12 +12,11 @@
 //  - one process's cached observed octree is stale as soon as another process commits.
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <map>
+#include <stop_token>
 #include <thread>
 
 #include "changed_scene.hpp"
@@ -330,11 +329,11 @@ TEST_F(ScaleOutTest, TwoWorkersClassifyOneCommitsTilesAndAKilledWorkersClaimsAre
 
   // A second vehicle uploads through both API processes while the worker process dies.
   const int64_t other = d.CreateSession(to_api, kBoxCamera);
-  std::atomic<bool> stop{false};
   std::vector<int> acknowledged;
-  std::thread uploader([&] {
+  // A jthread: a failed assertion below stops and joins it instead of std::terminate.
+  std::jthread uploader([&](const std::stop_token& stop) {
     httplib::Client via_doomed("127.0.0.1", doomed->port()), via_api("127.0.0.1", api->port());
-    for (int seq = 0; seq < kBoxKeyframes && !stop; ++seq) {
+    for (int seq = 0; seq < kBoxKeyframes && !stop.stop_requested(); ++seq) {
       const Upload u = BoxKeyframe(seq, 20.0);
       int status = d.Put(seq % 2 ? via_doomed : via_api, other, seq, u);
       if (status == 0) status = d.Put(via_api, other, seq, u);  // its process died: retry
@@ -342,15 +341,6 @@ TEST_F(ScaleOutTest, TwoWorkersClassifyOneCommitsTilesAndAKilledWorkersClaimsAre
       acknowledged.push_back(seq);
     }
   });
-  // A failed assertion below must not leave the thread joinable (std::terminate).
-  const auto join_uploader = [&] {
-    stop = true;
-    if (uploader.joinable()) uploader.join();
-  };
-  struct JoinOnExit {
-    std::function<void()> join;
-    ~JoinOnExit() { join(); }
-  } const join_on_exit{join_uploader};
 
   // The doomed worker alone until it is caught holding claims with tiles left: with a second
   // worker already running, a loaded machine could finish every tile between two looks.
@@ -368,7 +358,8 @@ TEST_F(ScaleOutTest, TwoWorkersClassifyOneCommitsTilesAndAKilledWorkersClaimsAre
   doomed->Kill(SIGKILL);
 
   const Json done = d.WaitJob(to_api, job);  // the helper takes the job after its lease
-  join_uploader();
+  uploader.request_stop();
+  uploader.join();
   ASSERT_EQ(done["state"], "succeeded") << done.dump();
   EXPECT_GE(done["attempts"].get<int>(), 2) << done.dump();
   EXPECT_EQ(d.Snapshot(to_api), reference);
