@@ -53,7 +53,7 @@ double EstimateImageNoise(const GrayImage& image) {
 }
 
 double DenoiseSigmaFor(double noise) {
-  constexpr double kNoiseFloor = 6.0, kSigmaPerGreyLevel = 0.5, kMaxSigma = 2.0, kMinSigma = 0.5;
+  constexpr double kNoiseFloor = 2.0, kSigmaPerGreyLevel = 0.5, kMaxSigma = 2.0, kMinSigma = 0.5;
   const double sigma = std::min(kMaxSigma, kSigmaPerGreyLevel * (noise - kNoiseFloor));
   return sigma >= kMinSigma ? sigma : 0.0;
 }

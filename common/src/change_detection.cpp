@@ -61,11 +61,13 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->observed.depth_sigma_per_m2 = 0.0;
     params->free_rays_stop_at_prior = false;
     params->removed_min_free_keyframes = 0;
+    params->new_footprint_radius_m = 0.0;
   } else if (rule == "confident") {
     params->observed.depth_sigma_per_m2 = 1.25e-3;
     params->observed.depth_sigma_factor = 3.0;
     params->free_rays_stop_at_prior = false;
     params->removed_min_free_keyframes = 3;
+    params->new_footprint_radius_m = 1.6;
   } else {
     throw Error(ErrorCode::kInvalidArgument,
                 "free-space rule '" + rule + "': expected paper or confident");
@@ -86,6 +88,27 @@ PointCloud ObservedPriorCloud(const PointCloud& prior, const PointCloud& global,
       },
       kPointGrain);
   return Select(prior, keep);
+}
+
+PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prior, double radius_m,
+                                int threads) {
+  if (!(radius_m > 0) || points.empty()) return points;
+  // The prior flattened onto z = 0 and thinned to a quarter of the radius (a building's wall
+  // becomes one column), so the test is one 2-D radius query per point.
+  PointCloud flat;
+  flat.reserve(prior.size());
+  for (const Point& p : prior) flat.emplace_back(p.x(), p.y(), 0.f);
+  flat = VoxelDownsample(flat, static_cast<float>(radius_m / 4));
+  const NeighborIndex footprint(flat);
+  std::vector<char> keep(points.size(), 0);
+  const auto radius = static_cast<float>(radius_m);
+  ParallelFor(
+      points.size(), threads,
+      [&](size_t i) {
+        keep[i] = footprint.AnyWithin(Point(points[i].x(), points[i].y(), 0.f), radius);
+      },
+      kPointGrain);
+  return Select(points, keep);
 }
 
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
@@ -186,6 +209,8 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
                                              params.th_ch_m, params.threads);
   result.changes =
       ClassifyChanges(result.global, result.observed_prior, params.th_ch_m, params.threads);
+  result.changes.new_points = WithinPriorFootprint(
+      result.changes.new_points, result.prior, params.new_footprint_radius_m, params.threads);
   if (params.removed_min_free_keyframes > 0) {
     result.changes.removed_points = SeenFree(result.changes.removed_points, result.observed,
                                              params.removed_min_free_keyframes, params.threads);

@@ -207,7 +207,9 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
     // Step 2: paper Alg. 1 (observed prior) and Alg. 2 (new / removed) on the neighbourhood.
     const PointCloud observed_prior =
         ObservedPriorCloud(n.prior, n.global, observed, th_ch, detection.threads);
-    const Changes changes = ClassifyChanges(n.global, observed_prior, th_ch, detection.threads);
+    Changes changes = ClassifyChanges(n.global, observed_prior, th_ch, detection.threads);
+    changes.new_points = WithinPriorFootprint(changes.new_points, n.prior,
+                                              detection.new_footprint_radius_m, detection.threads);
 
     // Step 3: evidence and confidence for the points inside the tile.
     const AxisAlignedBox bounds = grid.Bounds(tile);

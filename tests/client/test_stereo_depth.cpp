@@ -148,8 +148,8 @@ TEST(StereoDepth, SmoothsOnlyNoisyImages) {
   EXPECT_EQ(DenoiseSigmaFor(0.3), 0.0);  // the simulator without noise
   EXPECT_EQ(DenoiseSigmaFor(1.7), 0.0);  // real EuRoC V1_01
   EXPECT_EQ(DenoiseSigmaFor(2.7), 0.0);  // Middlebury Cones
-  EXPECT_EQ(DenoiseSigmaFor(5.2), 0.0);  // the simulator's small noise
-  EXPECT_NEAR(DenoiseSigmaFor(8.0), 1.0, 1e-9);
+  EXPECT_NEAR(DenoiseSigmaFor(3.0), 0.5, 1e-9);
+  EXPECT_NEAR(DenoiseSigmaFor(5.2), 1.6, 1e-9);  // the simulator's small noise
   EXPECT_EQ(DenoiseSigmaFor(10.1), 2.0);  // the dark scene with big noise: capped
 }
 

@@ -19,18 +19,19 @@ namespace mapdelta::client {
 double EstimateImageNoise(const GrayImage& image);
 
 // Sigma (pixels at StereoConfig::reference_width, 800; scaled with the image width) of the
-// Gaussian smoothing before matching for images with this noise: 0.5 px per grey level above 6,
+// Gaussian smoothing before matching for images with this noise: 0.5 px per grey level above 2,
 // at most 2 px, none under 0.5 px. Why: SGBM's matching costs on raw pixels follow the noise;
 // smoothing first averages it out, at a cost at depth edges. Against ground truth (paper-preset
 // frames, 800 px, fx * B = 400 m px, every 30th frame): the dark scene with big noise (10 grey
 // levels) goes from 9.7 % to 50 % of pixels with a depth (7.0 % -> 32 % of all pixels within 3
-// sigma of the truth) at sigma 2. Why only above 6: on the small-noise simulator (5.2) 1.6 px
-// also gave more and better depths (60 % -> 76 %), but the smoothed edges of far buildings put
-// false new points in free space: new-point precision on paper S2_02 small 0.80 -> 0.60, tiny
-// S2_01 0.94 -> 0.87 (docs/results.md, 2026-12-06). On clean real pairs (Middlebury, real EuRoC
-// at 1.7) it would only blur. Scaled with the width because what it costs at edges grows with
-// its size against the structures: 1.6 px on the tiny preset's 400 px frames cut S1_01's
-// new-point precision 0.89 -> 0.78, 0.8 px kept 0.88.
+// sigma of the truth) at sigma 2; the small-noise simulator (5.2) from 56 % to 74 % at 1.6 px,
+// with fewer gross errors (S1_01: 78 % -> 85 % of depths within 3 sigma). The denser depth also
+// reaches the ground past the map's edge, which made false new points until new points were
+// kept to the prior's footprint (change_detection.hpp); with that rule, paper S1_01 small goes
+// R_rm 0.77 -> 0.84, P_new 0.90 -> 0.95 (docs/results.md, 2026-12-06). On clean real pairs
+// (Middlebury 2.7, real EuRoC 1.7) it would only blur. Scaled with the width because what it
+// costs at edges grows with its size against the structures: 1.6 px on the tiny preset's 400 px
+// frames cut S1_01's new-point precision 0.89 -> 0.78, 0.8 px kept 0.88.
 double DenoiseSigmaFor(double noise);
 
 class StereoDepth {
