@@ -209,8 +209,8 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
                                              params.th_ch_m, params.threads);
   result.changes =
       ClassifyChanges(result.global, result.observed_prior, params.th_ch_m, params.threads);
-  result.changes.new_points = WithinPriorFootprint(
-      result.changes.new_points, result.prior, params.new_footprint_radius_m, params.threads);
+  result.changes.new_points = WithinPriorFootprint(result.changes.new_points, result.prior,
+                                                   params.new_footprint_radius_m, params.threads);
   if (params.removed_min_free_keyframes > 0) {
     result.changes.removed_points = SeenFree(result.changes.removed_points, result.observed,
                                              params.removed_min_free_keyframes, params.threads);

@@ -150,7 +150,7 @@ TEST(StereoDepth, SmoothsOnlyNoisyImages) {
   EXPECT_EQ(DenoiseSigmaFor(2.7), 0.0);  // Middlebury Cones
   EXPECT_NEAR(DenoiseSigmaFor(3.0), 0.5, 1e-9);
   EXPECT_NEAR(DenoiseSigmaFor(5.2), 1.6, 1e-9);  // the simulator's small noise
-  EXPECT_EQ(DenoiseSigmaFor(10.1), 2.0);  // the dark scene with big noise: capped
+  EXPECT_EQ(DenoiseSigmaFor(10.1), 2.0);         // the dark scene with big noise: capped
 }
 
 // On the noisy pair the default (smoothing sized by the measured noise) finds many more correct

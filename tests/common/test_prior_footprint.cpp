@@ -32,12 +32,12 @@ TEST(PriorFootprint, KeepsPointsWithinTheRadiusHorizontally) {
   EXPECT_TRUE(kept[1].isApprox(points[1]));
   EXPECT_TRUE(kept[2].isApprox(points[2]));
   EXPECT_EQ(WithinPriorFootprint(points, prior, 0.0, 1).size(), points.size());  // off
-  EXPECT_TRUE(WithinPriorFootprint(points, PointCloud{}, 1.6, 1).empty());  // nothing mapped
+  EXPECT_TRUE(WithinPriorFootprint(points, PointCloud{}, 1.6, 1).empty());       // nothing mapped
 }
 
 // A camera 10 m above the ground looks straight down and sees 16 x 12 m of it; the prior maps
-// only x < 0. A 5 m tall object, 4 x 2.5 m, stands at x in [-7, -3] (in the mapped half). The paper's rule
-// reports the unmapped half as new; the confident rule reports only the object.
+// only x < 0. A 5 m tall object, 4 x 2.5 m, stands at x in [-7, -3] (in the mapped half). The
+// paper's rule reports the unmapped half as new; the confident rule reports only the object.
 TEST(PriorFootprint, GroundPastTheMapsEdgeIsNotNewButANewObjectInsideIs) {
   const PinholeCamera camera = testing::SmallCamera();
   KeyframeFolder keyframes;

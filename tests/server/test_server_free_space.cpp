@@ -56,16 +56,17 @@ DepthImage DepthWithUnmatchedWall(const SE3& T) {
 
 const Json kCamera{{"width", 160}, {"height", 90}, {"fx", 80}, {"fy", 80}, {"cx", 80}, {"cy", 45}};
 
-// Removed points on the hidden box, on the gone box A, and in all.
+// Removed points on the hidden box, on the gone box A, and in all; new points at y < 0.
 struct Removed {
-  size_t hidden = 0, gone = 0, total = 0;
+  size_t hidden = 0, gone = 0, total = 0, new_at_negative_y = 0;
 };
 
 // A server on SQLite with the test's prior; sessions drive the same 15 poses along the wall
 // (y = 25, looking at -y), each keyframe's depth from `depth_of(keyframe index, pose)`.
 class FreeSpaceServer {
  public:
-  FreeSpaceServer(const std::string& rule, const fs::path& dir, bool voxel_consensus = true) {
+  FreeSpaceServer(const std::string& rule, const fs::path& dir, bool voxel_consensus = true,
+                  const BoxScene& prior_scene = Prior()) {
     ServerConfig c;
     c.storage.database = (dir / (rule + std::to_string(voxel_consensus) + ".db")).string();
     c.storage.tile_size_m = 20;
@@ -79,7 +80,7 @@ class FreeSpaceServer {
     c.classify.voxel_consensus = voxel_consensus;
     service_ = std::make_unique<MapService>(c, OpenSqliteStorage(c.storage.database));
     const std::string prior = (dir / "prior.pcd").string();
-    WriteCloud(prior, Prior().Sample(0.4));
+    WriteCloud(prior, prior_scene.Sample(0.4));
     service_->ImportPriorFile(prior, "test");
   }
 
@@ -110,6 +111,7 @@ class FreeSpaceServer {
       const auto changes = service_->storage().tiles().GetChanges(t);
       if (!changes) continue;
       for (const ChangePoint& p : DecodeChanges(changes->changes)) {
+        if (p.kind == ChangeKind::kNew) r.new_at_negative_y += p.position.y() < 0;
         if (p.kind != ChangeKind::kRemoved) continue;
         r.total += 1;
         r.hidden += grown(kHidden, p.position);
@@ -189,6 +191,27 @@ TEST(CommitFreeSpace, AVoxelMoreSessionsSawFreeThanFilledDoesNotMaskARemoval) {
   // Measured: 573 with (what sessions without the ghost find), 424 without.
   EXPECT_GT(with_consensus.gone, without.gone + 100);
   EXPECT_EQ(with_consensus.hidden, 0u);
+}
+
+// The prior maps the ground only from y = 4 on; the cameras see the real ground down to
+// y = -10. The paper's rule reports that unmapped ground as new; the confident rule keeps new
+// points to the prior's footprint (1.6 m from a prior point, horizontally) and reports none.
+TEST(CommitFreeSpace, GroundPastThePriorsEdgeIsNotReportedNew) {
+  log::SetLevel(log::Level::kWarn);
+  const fs::path dir = FreshTempDir("mds_free_space_footprint");
+  BoxScene cut = Prior();
+  cut.ground.min.y() = 4;
+  const auto real = [](int64_t, const SE3& T) { return Real().Render(TestCamera(), T, kMaxDepth); };
+  Removed paper, confident;
+  for (const std::string rule : {"paper", "confident"}) {
+    FreeSpaceServer server(rule, dir, true, cut);
+    server.Commit("car", real);
+    (rule == "paper" ? paper : confident) = server.Count();
+  }
+  fs::remove_all(dir);
+  EXPECT_GT(paper.new_at_negative_y, 50u);
+  EXPECT_EQ(confident.new_at_negative_y, 0u);
+  EXPECT_GT(confident.gone, 20u);  // the removal is found as before
 }
 
 }  // namespace

@@ -102,14 +102,19 @@ pid_t StartServe(const fs::path& dir, const std::string& command, const fs::path
   return pid;
 }
 
-// What the README's reader brings: a prior (a 0.2 m grid plane at z = 6.5 over x in [-10, -2])
-// and one 800x450 depth PNG, 5 m everywhere. The README's keyframe camera sits at z = 1.5
-// looking up (identity rotation: camera z = map z), so it sees a 10 x 5.6 m patch of that
-// plane: the part at x > -2 + th_ch (3.2 m) is new, and lies in tiles 0_0 and 0_-1.
+// What the README's reader brings: a prior (a 0.2 m grid plane at z = 6.5 over x in [-10, -2],
+// above mapped ground at z = 0 over x, y in [-10, 10]) and one 800x450 depth PNG, 5 m
+// everywhere. The README's keyframe camera sits at z = 1.5 looking up (identity rotation:
+// camera z = map z), so it sees a 10 x 5.6 m patch of the upper plane: the part at
+// x > -2 + th_ch (3.2 m) is new (within the prior's footprint, over the mapped ground), and
+// lies in tiles 0_0 and 0_-1.
 void WriteInputs(const fs::path& dir) {
   PointCloud prior;
-  for (float x = -10; x <= -2; x += 0.2f) {
-    for (float y = -10; y <= 10; y += 0.2f) prior.emplace_back(x, y, 6.5f);
+  for (float x = -10; x <= 10; x += 0.2f) {
+    for (float y = -10; y <= 10; y += 0.2f) {
+      prior.emplace_back(x, y, 0.f);
+      if (x <= -2) prior.emplace_back(x, y, 6.5f);
+    }
   }
   WriteCloud((dir / "prior.pcd").string(), prior);
   fs::create_directories(dir / "depth");

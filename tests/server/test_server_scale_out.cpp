@@ -220,7 +220,7 @@ class ScaleOutTest : public ::testing::Test {
 TEST_F(ScaleOutTest, ThreeProcessesOnPostgresGiveTheOneProcessSqliteResult) {
   std::map<std::string, std::string> reference;
   {
-    Deployment sqlite("sqlite", dir_ / "sqlite");
+    Deployment sqlite("sqlite", dir_ / "sqlite", "", 10);
     auto server = sqlite.Start();
     httplib::Client c("127.0.0.1", server->port());
     UploadAndCommitAll(sqlite, {&c});
@@ -229,7 +229,7 @@ TEST_F(ScaleOutTest, ThreeProcessesOnPostgresGiveTheOneProcessSqliteResult) {
   }
   ASSERT_GT(reference.size(), 3u) << "no changed tiles in the reference run";
 
-  Deployment postgres("postgres", dir_ / "postgres");
+  Deployment postgres("postgres", dir_ / "postgres", "", 10);
   auto both = postgres.Start();                     // API and worker
   auto api = postgres.Start({"--api-only"});        // API only
   auto worker = postgres.Start({"--worker-only"});  // worker only
