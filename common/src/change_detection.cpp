@@ -162,6 +162,10 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
     throw Error(ErrorCode::kInvalidArgument,
                 "change detection: removed_min_free_keyframes must be 0-4");
   }
+  if (!(params.new_footprint_radius_m >= 0 && std::isfinite(params.new_footprint_radius_m))) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "change detection: new_footprint_radius_m must be a distance >= 0 (0 = off)");
+  }
   if (keyframes.keyframes.empty()) {
     throw Error(ErrorCode::kInvalidArgument, "change detection: no keyframes");
   }

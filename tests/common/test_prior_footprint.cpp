@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "mapdelta/common/change_detection.hpp"
+#include "mapdelta/common/error.hpp"
 #include "wall_scene.hpp"
 
 namespace mapdelta {
@@ -75,6 +76,9 @@ TEST(PriorFootprint, GroundPastTheMapsEdgeIsNotNewButANewObjectInsideIs) {
       EXPECT_EQ(past_edge, 0) << rule;
     EXPECT_EQ(object + past_edge, static_cast<int>(changes.new_points.size())) << rule;
   }
+  ChangeDetectionParams bad;
+  bad.new_footprint_radius_m = -1.0;
+  EXPECT_THROW(DetectChanges(keyframes, prior, bad), Error);
 }
 
 }  // namespace
