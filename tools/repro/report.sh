@@ -234,6 +234,8 @@ set output "$plots/crowd_lifecycle.png"
 set title "Precision of every reported point (dashed) and of confirmed clusters (solid) vs uploads"
 set logscale x 2; set xlabel "uploads"; set ylabel "precision / recall"; set yrange [0:1.05]; set grid; set key bottom right
 set datafile missing "nan"
+# Tab-separated: the cluster columns ("33 / 0") hold spaces, which split them by default.
+set datafile separator "\t"
 plot "$plots/crowd_lifecycle.dat" u 1:9 w lp lw 2 pt 5 lc 2 t "confirmed P_{new}", "" u 1:11 w lp lw 2 pt 11 lc 4 t "confirmed P_{rm}", \
      "" u 1:8 w lp lw 1 pt 7 lc 1 t "confirmed R_{new}", "" u 1:10 w lp lw 1 pt 9 lc 3 t "confirmed R_{rm}", \
      "" u 1:5 w lp lw 1 dt 2 pt 5 lc 2 t "all P_{new}", "" u 1:7 w lp lw 1 dt 2 pt 11 lc 4 t "all P_{rm}"
