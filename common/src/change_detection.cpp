@@ -56,18 +56,28 @@ PointCloud SeenFree(const PointCloud& points, const ObservedArea& observed, int 
 
 }  // namespace
 
+PointCloud NotSeenFree(const PointCloud& points, const ObservedArea& observed, int threads) {
+  std::vector<char> keep(points.size(), 0);
+  ParallelFor(
+      points.size(), threads, [&](size_t i) { keep[i] = !observed.IsSeenFree(points[i], 1); },
+      kPointGrain);
+  return Select(points, keep);
+}
+
 void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) {
   if (rule == "paper") {
     params->observed.depth_sigma_per_m2 = 0.0;
     params->free_rays_stop_at_prior = false;
     params->removed_min_free_keyframes = 0;
     params->new_footprint_radius_m = 0.0;
+    params->new_not_seen_free = false;
   } else if (rule == "confident") {
     params->observed.depth_sigma_per_m2 = 1.25e-3;
     params->observed.depth_sigma_factor = 3.0;
     params->free_rays_stop_at_prior = false;
     params->removed_min_free_keyframes = 3;
     params->new_footprint_radius_m = 1.6;
+    params->new_not_seen_free = true;
   } else {
     throw Error(ErrorCode::kInvalidArgument,
                 "free-space rule '" + rule + "': expected paper or confident");
@@ -215,6 +225,10 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
       ClassifyChanges(result.global, result.observed_prior, params.th_ch_m, params.threads);
   result.changes.new_points = WithinPriorFootprint(result.changes.new_points, result.prior,
                                                    params.new_footprint_radius_m, params.threads);
+  if (params.new_not_seen_free) {
+    result.changes.new_points =
+        NotSeenFree(result.changes.new_points, result.observed, params.threads);
+  }
   if (params.removed_min_free_keyframes > 0) {
     result.changes.removed_points = SeenFree(result.changes.removed_points, result.observed,
                                              params.removed_min_free_keyframes, params.threads);

@@ -47,6 +47,7 @@ ConfigSchema Schema(ServerConfig& c) {
       .Field("classify.th_ch_m", &c.classify.th_ch_m, 1e-6, 50)
       .Field("classify.min_voxel_support", &c.classify.min_voxel_support, 1, 1000000)
       .Field("classify.voxel_consensus", &c.classify.voxel_consensus)
+      .Field("classify.consensus_reach_m", &c.classify.consensus_reach_m, 0, 10)
       .Field("lifecycle.confirm_sessions", &c.lifecycle.confirm_sessions, 1, 1000)
       .Field("lifecycle.confirm_vehicles", &c.lifecycle.confirm_vehicles, 1, 1000)
       .Field("lifecycle.cluster_link_m", &c.lifecycle.cluster_link_m, 0.05, 50)

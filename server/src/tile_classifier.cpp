@@ -6,6 +6,7 @@
 #include "mapdelta/common/change_detection.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
 #include "mapdelta/common/parallel.hpp"
+#include "voxel_consensus.hpp"
 
 namespace mapdelta::server {
 
@@ -67,27 +68,18 @@ std::vector<std::pair<int64_t, const ObservedArea*>> AreasOf(const std::set<int6
   return out;
 }
 
-// Voxel consensus (classify.voxel_consensus): an aggregated voxel that more sessions saw free on
-// their own (min_free keyframes each, net of their hits) than put a point in it is one
-// session's depth noise, a misplaced session or a passing object. Kept, it would mask every
-// removal within th_ch and be reported as new; so it is left out of the global cloud. With one
-// session nothing changes (its own points make its octree occupied there).
-void DropContradictedVoxels(Neighbourhood& n, ObservedCache& cache, int min_free, int threads) {
-  const auto areas = AreasOf(n.sessions, cache);
-  std::vector<char> keep(n.global.size(), 1);
-  ParallelFor(
-      n.global.size(), threads,
-      [&](size_t i) {
-        const AggregateVoxel& v = *n.voxels[i];
-        size_t seen_free = 0;
-        for (const auto& [s, area] : areas) {
-          if (!std::binary_search(v.sessions.begin(), v.sessions.end(), s) &&
-              area->IsSeenFree(v.centroid, min_free))
-            ++seen_free;
-        }
-        keep[i] = seen_free <= v.sessions.size();
+// Voxel consensus (voxel_consensus.hpp): the neighbourhood's voxels that other sessions were at
+// without reproducing them are left out of the global cloud.
+void DropUnreproducedVoxels(Neighbourhood& n, ObservedCache& cache, double reach_m, int threads) {
+  std::map<int64_t, const ObservedArea*> areas;
+  for (const auto& [s, area] : AreasOf(n.sessions, cache)) areas.emplace(s, area);
+  const std::vector<char> keep = VoxelsWithConsensus(
+      n.voxels, std::vector<int64_t>(n.sessions.begin(), n.sessions.end()),
+      [&](int64_t s, const Point& p) {
+        const auto it = areas.find(s);
+        return it != areas.end() && it->second->IsObserved(p);
       },
-      /*grain=*/1024);
+      reach_m, threads);
   PointCloud global;
   std::vector<const AggregateVoxel*> voxels;
   for (size_t i = 0; i < n.global.size(); ++i) {
@@ -182,6 +174,19 @@ void RemovedEvidence(const std::vector<std::pair<int64_t, const ObservedArea*>>&
   std::sort(c->observed_by.begin(), c->observed_by.end());
 }
 
+// NotSeenFree (change_detection.hpp) session by session: a new point stays when at least one
+// session that filled its voxel does not hold that voxel free in its own octree (its rays ended
+// there at least as often as they passed). A merged octree would let earlier sessions, which
+// drove through before the new object stood there, outvote it.
+bool SomeSessionEndedRaysAt(const std::vector<int64_t>& sessions, ObservedCache& cache,
+                            const Point& p) {
+  for (int64_t s : sessions) {
+    const ObservedArea* area = cache.Session(s);
+    if (!area || !area->IsSeenFree(p, 1)) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const TileId& tile,
@@ -193,6 +198,7 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
   out.record.params_json = "{\"th_ch_m\":" + std::to_string(params.th_ch_m) +
                            ",\"min_voxel_support\":" + std::to_string(params.min_voxel_support) +
                            ",\"voxel_consensus\":" + (params.voxel_consensus ? "true" : "false") +
+                           ",\"consensus_reach_m\":" + std::to_string(params.consensus_reach_m) +
                            "}";
   std::set<int64_t> tile_sessions;
   if (auto state = storage.tiles().GetState(tile)) tile_sessions = state->sessions;
@@ -201,7 +207,7 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
   if (!tile_sessions.empty()) {
     Neighbourhood n = LoadNeighbourhood(storage, grid, tile, prior_version, params);
     if (params.voxel_consensus && min_free > 0)
-      DropContradictedVoxels(n, cache, min_free, detection.threads);
+      DropUnreproducedVoxels(n, cache, params.consensus_reach_m, detection.threads);
     const ObservedArea& observed = cache.Merged(tile_sessions, detection.observed.resolution_m);
     const double th_ch = params.th_ch_m;
     // Step 2: paper Alg. 1 (observed prior) and Alg. 2 (new / removed) on the neighbourhood.
@@ -224,6 +230,8 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
       c.position = p;
       c.kind = ChangeKind::kNew;
       c.supported_by = n.voxels[i]->sessions;
+      if (detection.new_not_seen_free && !SomeSessionEndedRaysAt(c.supported_by, cache, p))
+        continue;
       std::set<int64_t> near(c.supported_by.begin(), c.supported_by.end());
       c.observed_by = ObservingSessions(tile_sessions, cache, p, near);
       c.confidence = Confidence(c.supported_by.size(), c.observed_by.size());

@@ -17,8 +17,9 @@
 //   there (points within th_ch, or the voxel not free at all in their octree). A session that
 //   only grazed the voxel is neither. Before, stray rays of many sessions were summed in one
 //   merged octree, so every upload added false removals (docs/results.md, crowd run).
-// - with classify.voxel_consensus, an aggregated voxel that more sessions saw free than put a
-//   point in it is left out of the global cloud (one session's noise or a passing object).
+// - with classify.voxel_consensus, an aggregated voxel that k sessions filled is left out of the
+//   global cloud when k other sessions were there without filling it (voxel_consensus.hpp: one
+//   session's noise, a misplaced session or a passing object).
 #include <map>
 #include <memory>
 #include <mutex>

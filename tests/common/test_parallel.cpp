@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <mutex>
 #include <set>
 #include <stdexcept>
@@ -53,10 +54,22 @@ TEST(Parallel, UsesAtMostTheCallersThreadCount) {
 
 TEST(Parallel, FirstErrorIsRethrownAndStopsNewClaims) {
   std::atomic<size_t> ran{0};
+  std::atomic<bool> thrown{false}, waited{false};
   EXPECT_THROW(ParallelFor(100000, 2,
                            [&](size_t i) {
                              ++ran;
-                             if (i == 10) throw std::runtime_error("index 10");
+                             if (i == 10) {
+                               thrown = true;
+                               throw std::runtime_error("index 10");
+                             }
+                             // Past index 20 the other thread waits once until the error is on
+                             // its way: without this, a thread preempted before index 10 (a
+                             // loaded machine) let the other run all 100000 first.
+                             if (i >= 20 && !waited.exchange(true)) {
+                               for (int k = 0; k < 500 && !thrown; ++k)
+                                 std::this_thread::sleep_for(std::chrono::milliseconds(10));
+                               std::this_thread::sleep_for(std::chrono::milliseconds(50));
+                             }
                            }),
                std::runtime_error);
   EXPECT_LT(ran.load(), 100000u);

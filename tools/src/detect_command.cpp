@@ -57,7 +57,7 @@ struct DetectOptions {
 bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out, DetectOptions* o) {
   ChangeDetectionParams& params = o->params;
   double sigma_per_m2 = 0, footprint_radius = 0;
-  int stop_at_prior = 0, min_free_keyframes = 0;
+  int stop_at_prior = 0, min_free_keyframes = 0, new_not_seen_free = 0;
   cli::Parser cli("mapdelta-detect", kDetectDescription);
   cli.Option("prior", &o->prior_path, "prior map cloud (.pcd/.ply/.las)", "CLOUD")
       .Option("keyframes", &o->keyframe_dir, "keyframe folder (camera.yaml, poses.txt, depth/)",
@@ -91,6 +91,10 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
               "ablation: override how far (horizontally) from the prior a new point may lie "
               "[m] (0 = anywhere)",
               "M")
+      .Option("new-not-seen-free", &new_not_seen_free,
+              "ablation: override whether a new point's voxel must not be seen free net of "
+              "hits (0 or 1)",
+              "0|1")
       .Option("rho-o", &params.observed.resolution_m, "octree resolution rho_o [m]", "M")
       .Option("voxel", &params.cloud_voxel_m, "cloud downsampling before comparing [m]", "M")
       .Option("stride", &params.observed.pixel_stride, "use every N-th pixel for ray casting")
@@ -104,12 +108,16 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
   params.observed.prefilter_voxel_m = params.observed.resolution_m;
   ApplyFreeSpaceRule(o->free_space, &params);
   if (cli.Given("depth-sigma-per-m2")) params.observed.depth_sigma_per_m2 = sigma_per_m2;
-  if (cli.Given("stop-at-prior")) {
-    if (stop_at_prior != 0 && stop_at_prior != 1)
+  const auto flag = [&](const char* name, int value) {
+    if (value != 0 && value != 1)
       cli::FailUsage("mapdelta-detect",
-                     "--stop-at-prior: expected 0 or 1, got " + std::to_string(stop_at_prior));
-    params.free_rays_stop_at_prior = stop_at_prior == 1;
-  }
+                     std::string("--") + name + ": expected 0 or 1, got " + std::to_string(value));
+    return value == 1;
+  };
+  if (cli.Given("stop-at-prior"))
+    params.free_rays_stop_at_prior = flag("stop-at-prior", stop_at_prior);
+  if (cli.Given("new-not-seen-free"))
+    params.new_not_seen_free = flag("new-not-seen-free", new_not_seen_free);
   if (cli.Given("removed-min-free-keyframes"))
     params.removed_min_free_keyframes = min_free_keyframes;
   if (cli.Given("footprint-radius")) params.new_footprint_radius_m = footprint_radius;
@@ -170,6 +178,7 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
                             {"free_rays_stop_at_prior", params.free_rays_stop_at_prior},
                             {"removed_min_free_keyframes", params.removed_min_free_keyframes},
                             {"new_footprint_radius_m", params.new_footprint_radius_m},
+                            {"new_not_seen_free", params.new_not_seen_free},
                             {"rho_o_m", params.observed.resolution_m},
                             {"cloud_voxel_m", params.cloud_voxel_m},
                             {"align", align},

@@ -25,6 +25,10 @@ struct ChangeDetectionParams {
   // a new point must lie within this horizontal distance of some prior point
   // (WithinPriorFootprint); 0 = anywhere (the paper's Alg. 2).
   double new_footprint_radius_m = 0.0;
+  // a new point's own voxel must not be seen free (ObservedArea::IsSeenFree, 1 keyframe net of
+  // hits): where the session's rays passed through more often than they ended, its points are
+  // depth noise, not a new surface (NotSeenFree); false = the paper's Alg. 2.
+  bool new_not_seen_free = false;
   // Threads for every step of DetectChanges, the observed area's rays included (it overrides
   // observed.threads there); 0 = every hardware thread (parallel.hpp).
   int threads = 0;
@@ -37,7 +41,8 @@ struct ChangeDetectionParams {
 //   "confident" - the method's rule (issue 21): a removed point's own voxel must be seen free
 //                 by 3 keyframes net of hits, and hit rays end 3 sigma(d) before the hit
 //                 (sigma = 1.25e-3 d^2: 0.5 px disparity at the paper rig's fx * B = 400 m px).
-//                 New points only within the prior's footprint (1.6 m: two cloud voxels).
+//                 New points only within the prior's footprint (1.6 m: two cloud voxels) and
+//                 only where the session's own rays did not pass through more than end.
 //                 Rays without depth are not stopped at prior surfaces: measured on paper
 //                 S1_01 (docs/results.md), that part lowered R_rm by 0.036 and added no
 //                 precision once the voxel test was on (free_rays_stop_at_prior stays an option).
@@ -58,6 +63,14 @@ struct Changes {
 // S2_02, 744 of the false new points of a smoothed-stereo run and no true one lay there).
 PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prior, double radius_m,
                                 int threads);
+
+// The points whose own voxel `observed` has not seen free net of hits (IsSeenFree with one
+// keyframe): a new surface is where rays end, not where they pass. Measured on 9 of the paper
+// reproduction's cells (issue 21, docs/results.md 2026-12-06), applied to the whole global
+// cloud: P_new up in every cell (e.g. S1_02 big 0.824 -> 0.902), R_new within 0.006, but removed
+// precision in sparse depth fell (S1_dark big P_rm 0.828 -> 0.659: its few surface points lie in
+// voxels rays also cross), so it judges new points only and removals keep the whole cloud.
+PointCloud NotSeenFree(const PointCloud& points, const ObservedArea& observed, int threads);
 
 // Alg. 2. `threads` as ChangeDetectionParams::threads.
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,

@@ -85,9 +85,12 @@ struct PipelineConfig {
 struct ClassifyConfig {
   double th_ch_m = 3.2;       // change distance threshold
   int min_voxel_support = 1;  // aggregated voxels seen by fewer sessions are ignored
-  // With the confident free-space rule: an aggregated voxel that more sessions saw free than put
-  // a point in it is ignored (tile_classifier.cpp, DropContradictedVoxels).
+  // With the confident free-space rule: an aggregated voxel that k sessions filled is ignored when
+  // k other sessions were there without filling it: their octree knows it, or they filled a voxel
+  // within consensus_reach_m (server/src/voxel_consensus.hpp).
   bool voxel_consensus = true;
+  // The face and edge neighbours of a 0.8 m session voxel (0.8, 1.13 m); 0 = the octree alone.
+  double consensus_reach_m = 1.2;
 };
 
 // Change clusters' lifecycle (issue #20; server/src/change_lifecycle.hpp has the rules).

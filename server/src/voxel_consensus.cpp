@@ -1,0 +1,42 @@
+#include "voxel_consensus.hpp"
+
+#include <algorithm>
+#include <set>
+
+#include "mapdelta/common/neighbor_index.hpp"
+#include "mapdelta/common/parallel.hpp"
+
+namespace mapdelta::server {
+
+std::vector<char> VoxelsWithConsensus(const std::vector<const AggregateVoxel*>& voxels,
+                                      const std::vector<int64_t>& sessions,
+                                      const SessionObserves& observes, double reach_m,
+                                      int threads) {
+  PointCloud centroids;
+  centroids.reserve(voxels.size());
+  for (const AggregateVoxel* v : voxels) centroids.push_back(v->centroid);
+  const NeighborIndex index(centroids);
+  std::vector<char> keep(voxels.size(), 1);
+  ParallelFor(
+      voxels.size(), threads,
+      [&](size_t i) {
+        const AggregateVoxel& v = *voxels[i];
+        const auto filled = [&](int64_t s) {
+          return std::binary_search(v.sessions.begin(), v.sessions.end(), s);
+        };
+        std::set<int64_t> beside;  // sessions that filled a voxel within reach
+        if (reach_m > 0) {
+          for (size_t j : index.RadiusSearch(v.centroid, static_cast<float>(reach_m)))
+            beside.insert(voxels[j]->sessions.begin(), voxels[j]->sessions.end());
+        }
+        size_t there_not_filled = 0;
+        for (int64_t s : sessions) {
+          if (!filled(s) && (beside.count(s) || observes(s, v.centroid))) ++there_not_filled;
+        }
+        keep[i] = there_not_filled < v.sessions.size();
+      },
+      /*grain=*/1024);
+  return keep;
+}
+
+}  // namespace mapdelta::server

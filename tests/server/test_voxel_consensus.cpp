@@ -1,0 +1,72 @@
+// Voxel consensus (server/src/voxel_consensus.hpp): a voxel k sessions filled is left out when
+// k other sessions were there without filling it: their octree knows the place, or they filled a
+// voxel within reach of it.
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "voxel_consensus.hpp"
+
+namespace mapdelta::server {
+namespace {
+
+AggregateVoxel Voxel(float x, float y, float z, std::vector<int64_t> sessions) {
+  AggregateVoxel v;
+  v.centroid = Point(x, y, z);
+  v.point_count = static_cast<uint32_t>(sessions.size());
+  v.sessions = std::move(sessions);
+  return v;
+}
+
+// Octrees as a table: which sessions know which voxel (by its x).
+SessionObserves Knows(std::set<std::pair<int64_t, float>> known) {
+  return [known = std::move(known)](int64_t s, const Point& p) {
+    return known.count({s, p.x()}) > 0;
+  };
+}
+
+std::vector<char> Keep(const std::vector<AggregateVoxel>& voxels,
+                       const std::vector<int64_t>& sessions, const SessionObserves& observes,
+                       double reach_m = 1.0) {
+  std::vector<const AggregateVoxel*> pointers;
+  for (const AggregateVoxel& v : voxels) pointers.push_back(&v);
+  return VoxelsWithConsensus(pointers, sessions, observes, reach_m, /*threads=*/2);
+}
+
+TEST(VoxelConsensus, OneSessionAloneKeepsEveryVoxel) {
+  const std::vector<AggregateVoxel> voxels = {Voxel(0, 0, 0, {1}), Voxel(0.5f, 0, 0, {1})};
+  EXPECT_EQ(Keep(voxels, {1}, Knows({{1, 0.f}, {1, 0.5f}})), (std::vector<char>{1, 1}));
+}
+
+// Session 1's point behind a wall (x = 0.6) that sessions 2 and 3 filled at x = 0: their octrees
+// end at the wall and never see the place, but they were right beside it.
+TEST(VoxelConsensus, AVoxelBesideOtherSessionsSurfaceIsLeftOut) {
+  const std::vector<AggregateVoxel> voxels = {Voxel(0, 0, 0, {1, 2, 3}), Voxel(0.6f, 0, 0, {1})};
+  const auto keep = Keep(voxels, {1, 2, 3}, Knows({}));
+  EXPECT_EQ(keep, (std::vector<char>{1, 0}));
+  // Without the reach only the octrees count: nobody else knows the place, so it stays.
+  EXPECT_EQ(Keep(voxels, {1, 2, 3}, Knows({}), /*reach_m=*/0), (std::vector<char>{1, 1}));
+}
+
+TEST(VoxelConsensus, OtherSessionsOctreesCountAsThere) {
+  // Session 1's ghost at x = 5, seen by session 2's octree: one filled, one there -> left out.
+  const std::vector<AggregateVoxel> voxels = {Voxel(5, 0, 0, {1})};
+  EXPECT_EQ(Keep(voxels, {1, 2}, Knows({{2, 5.f}})), (std::vector<char>{0}));
+  // Two filled it, one other knows it: kept.
+  const std::vector<AggregateVoxel> shared = {Voxel(5, 0, 0, {1, 3})};
+  EXPECT_EQ(Keep(shared, {1, 2, 3}, Knows({{2, 5.f}})), (std::vector<char>{1}));
+  // Two filled it and two others know it: left out (ties go against the voxel).
+  EXPECT_EQ(Keep(shared, {1, 2, 3, 4}, Knows({{2, 5.f}, {4, 5.f}})), (std::vector<char>{0}));
+}
+
+TEST(VoxelConsensus, SessionsThatWereElsewhereDoNotCount) {
+  // Session 2 filled a voxel 1.5 m away (beyond the 1 m reach) and its octree does not know
+  // x = 0: session 1's voxel has nobody against it.
+  const std::vector<AggregateVoxel> voxels = {Voxel(0, 0, 0, {1}), Voxel(0, 1.5f, 0, {2})};
+  EXPECT_EQ(Keep(voxels, {1, 2}, Knows({})), (std::vector<char>{1, 1}));
+  // A session without an octree that filled nothing nearby is not there either.
+  EXPECT_EQ(Keep({Voxel(0, 0, 0, {1})}, {1, 2, 3}, Knows({})), (std::vector<char>{1}));
+}
+
+}  // namespace
+}  // namespace mapdelta::server
