@@ -10,6 +10,12 @@
 // would mask every removal within th_ch and be reported as new. With one session nothing
 // changes; a surface two sessions share keeps the voxels both filled.
 //
+// Ties go against the voxel, as the lifecycle does (a cluster is confirmed only by more
+// supporting than contradicting sessions): a voxel one session filled and another saw empty
+// could not back a confirmed change either way, and kept it would mask removals. (The main
+// job's two vehicles drive different changed scenes, so they disagree by design: its server
+// reports 50 new points where it reported 463.)
+//
 // Why "were there" and not "saw it free": in issue 20's four-upload run most masking voxels lay
 // where the other sessions had no free evidence at all, just behind or beside the surfaces they
 // saw (overshooting depth). Measured on that run's replay (docs/results.md, 2026-12-06):
