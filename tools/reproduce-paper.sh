@@ -34,7 +34,8 @@ usage: bash tools/reproduce-paper.sh --out DIR [options]
   --crowd-noise N     noise of the crowd uploads (default small)
   --crowd-replay DIR  upload the keyframes of an earlier crowd run (DIR = its --out) instead of
                       running the client again: the same N sessions through this build's server,
-                      in minutes (for comparing server rules); reuses DIR's merged detections
+                      in minutes (for comparing server rules); reuses DIR's merged detections;
+                      uploads past DIR's last one run the client fresh (e.g. 1,2,4,8 after 1,2,4)
   --data DIR          dataset cache (clean renders, renoised trials; default OUT/data)
   --dataset N:K=DIR   use DIR (a generated dataset) as noise N, trial K (repeatable), e.g.
                       small:1=/work/data/paper-small-s1

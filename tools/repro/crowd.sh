@@ -189,7 +189,8 @@ EOF3
     seq=${seqs[$(((i - 1) % ${#seqs[@]}))]}
     rm -rf "$cdir/u$i"
     printf 'upload:\n  vehicle_id: crowd-car-%d\n' "$i" >"$cdir/u$i.yaml"
-    if [ -n "$crowd_replay" ]; then
+    # A replay sends the earlier run's uploads again; uploads past its last run fresh.
+    if [ -n "$crowd_replay" ] && [ -d "$crowd_replay/crowd/u$i" ]; then
       ds=$data/clean-$crowd_preset-s$city_seed  # only its scene clouds are read
       [ -f "$ds/scenes/original/cloud.pcd" ] || die "--crowd-replay: no $ds/scenes/original/cloud.pcd (use the run's --data)"
       local src=$crowd_replay/crowd/u$i
