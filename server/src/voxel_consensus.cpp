@@ -1,6 +1,7 @@
 #include "voxel_consensus.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <set>
 
 #include "mapdelta/common/neighbor_index.hpp"
@@ -30,10 +31,17 @@ std::vector<char> VoxelsWithConsensus(const std::vector<const AggregateVoxel*>& 
             beside.insert(voxels[j]->sessions.begin(), voxels[j]->sessions.end());
         }
         size_t there_not_filled = 0;
+        int64_t newest_not_filled = std::numeric_limits<int64_t>::min();
         for (int64_t s : sessions) {
-          if (!filled(s) && (beside.count(s) || observes(s, v.centroid))) ++there_not_filled;
+          if (!filled(s) && (beside.count(s) || observes(s, v.centroid))) {
+            ++there_not_filled;
+            newest_not_filled = std::max(newest_not_filled, s);
+          }
         }
-        keep[i] = there_not_filled < v.sessions.size();
+        const size_t filled_by = v.sessions.size();
+        keep[i] = there_not_filled < filled_by ||
+                  (there_not_filled == filled_by && !v.sessions.empty() &&
+                   v.sessions.back() > newest_not_filled);
       },
       /*grain=*/1024);
   return keep;

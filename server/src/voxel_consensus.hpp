@@ -10,11 +10,14 @@
 // would mask every removal within th_ch and be reported as new. With one session nothing
 // changes; a surface two sessions share keeps the voxels both filled.
 //
-// Ties go against the voxel, as the lifecycle does (a cluster is confirmed only by more
-// supporting than contradicting sessions): a voxel one session filled and another saw empty
-// could not back a confirmed change either way, and kept it would mask removals. (The main
-// job's two vehicles drive different changed scenes, so they disagree by design: its server
-// reports 50 new points where it reported 463.)
+// A tie goes to the newer sessions (higher ids: committed later): the voxel stays when its newest
+// filler is newer than every session that was there without filling it. Evidence split evenly
+// is most often the world having changed between the drives (a building back after a refresh
+// applied its removal: the lifecycle's expiry needs the two new drives to outweigh the two
+// before). Among drives of an unchanged scene it keeps a newer session's stray voxel against
+// one older session; what counts is that a voxel one session filled is left out once two others
+// were there. (The main job's two vehicles drive different changed scenes, so they disagree by
+// design: its server reports 50 new points where it reported 463.)
 //
 // Why "were there" and not "saw it free": in issue 20's four-upload run most masking voxels lay
 // where the other sessions had no free evidence at all, just behind or beside the surfaces they

@@ -469,8 +469,8 @@ TEST_P(Lifecycle, TheFeedListsEachChangedClusterOnceInOrderAndItsCursorSurvivesA
 // Issue #20 item 2: two vehicles whose uploaded poses are 2 m off (and say so in their
 // covariance, sigma 1.5 m) see the prior's boxes displaced: false changes. Weighted by their
 // localization they cannot confirm them (beside them the same drives with a small covariance do,
-// which is what the weighting prevents), and two well-localized vehicles then reject those they
-// contradict.
+// which is what the weighting prevents); a well-localized vehicle then rejects those it
+// contradicts, and after two of them none of the false changes is confirmed.
 TEST_P(Lifecycle, ShiftedSessionsCannotConfirmAFalseChangeThatWellLocalizedOnesContradict) {
   config_.classify.th_ch_m = 1.0;  // below the shift: displaced surfaces are changes
   Open();
@@ -501,26 +501,26 @@ TEST_P(Lifecycle, ShiftedSessionsCannotConfirmAFalseChangeThatWellLocalizedOnesC
   EXPECT_DOUBLE_EQ(Json::parse(*report)["position_sigma_m"].get<double>(), 1.5);
   EXPECT_EQ(service_->GetSession(s1)["localization"], Json::parse(*report));
 
-  // Two well-localized vehicles: every false cluster they both contradict is rejected, its
-  // support being only the shifted sessions' 2 x 0.25. (Clusters they support themselves can be
-  // confirmed: voxels whose centroid the shifted points pulled more than th_ch off the prior hold
-  // the good sessions' points too; see the report of issue #20.)
+  // Well-localized vehicles: every false cluster one of them contradicts is rejected, its support
+  // being only the shifted sessions' 2 x 0.25. (Voxel consensus leaves out the shifted sessions'
+  // points where the good sessions' surfaces are, so most false clusters shrink or vanish
+  // instead: no longer detected, they are rejected too.)
+  std::vector<int64_t> false_clusters;
+  for (const Json& c : Clusters()) false_clusters.push_back(c["cluster_id"]);
   const int64_t s3 = Drive("car-3", PriorScene(), 25.0, Localization{0, 0.05});
-  const int64_t s4 = Drive("car-4", PriorScene(), 24.0);
+  Drive("car-4", PriorScene(), 24.0);
   int contradicted = 0;
   for (const Json& c : Clusters()) {
     const Json& against = c["evidence"]["contradicting"]["sessions"];
-    const auto has = [&](int64_t s) {
-      return std::find(against.begin(), against.end(), s) != against.end();
-    };
-    if (!has(s3) || !has(s4)) continue;
+    if (std::find(against.begin(), against.end(), s3) == against.end()) continue;
     ++contradicted;
     EXPECT_EQ(c["state"], "rejected") << c.dump(1);
     EXPECT_DOUBLE_EQ(c["evidence"]["supporting"]["weight"].get<double>(), 2 * kMinSessionWeight)
         << c.dump(1);
-    EXPECT_EQ(c["evidence"]["contradicting"]["vehicles"], Json::array({"car-3", "car-4"}));
+    EXPECT_EQ(c["evidence"]["contradicting"]["vehicles"][0], "car-3");
   }
   EXPECT_GT(contradicted, 0) << Clusters().dump(1);
+  for (int64_t id : false_clusters) EXPECT_NE(StateOf(id), "confirmed") << id;
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, Lifecycle, ::testing::Values("memory", "sqlite", "postgres"),

@@ -49,14 +49,25 @@ TEST(VoxelConsensus, AVoxelBesideOtherSessionsSurfaceIsLeftOut) {
 }
 
 TEST(VoxelConsensus, OtherSessionsOctreesCountAsThere) {
-  // Session 1's ghost at x = 5, seen by session 2's octree: one filled, one there -> left out.
+  // Session 1's ghost at x = 5, seen by sessions 2 and 3's octrees: left out.
   const std::vector<AggregateVoxel> voxels = {Voxel(5, 0, 0, {1})};
-  EXPECT_EQ(Keep(voxels, {1, 2}, Knows({{2, 5.f}})), (std::vector<char>{0}));
+  EXPECT_EQ(Keep(voxels, {1, 2, 3}, Knows({{2, 5.f}, {3, 5.f}})), (std::vector<char>{0}));
   // Two filled it, one other knows it: kept.
   const std::vector<AggregateVoxel> shared = {Voxel(5, 0, 0, {1, 3})};
   EXPECT_EQ(Keep(shared, {1, 2, 3}, Knows({{2, 5.f}})), (std::vector<char>{1}));
-  // Two filled it and two others know it: left out (ties go against the voxel).
-  EXPECT_EQ(Keep(shared, {1, 2, 3, 4}, Knows({{2, 5.f}, {4, 5.f}})), (std::vector<char>{0}));
+}
+
+// Evidence split evenly goes to the newer sessions: a place that changed between the drives.
+TEST(VoxelConsensus, ATieGoesToTheNewerSessions) {
+  // Sessions 3 and 4 filled it, the older 1 and 2 saw it empty: the world changed, kept.
+  const std::vector<AggregateVoxel> back = {Voxel(5, 0, 0, {3, 4})};
+  EXPECT_EQ(Keep(back, {1, 2, 3, 4}, Knows({{1, 5.f}, {2, 5.f}})), (std::vector<char>{1}));
+  // Sessions 1 and 2 filled it, the newer 3 and 4 saw it empty: gone, left out.
+  const std::vector<AggregateVoxel> gone = {Voxel(5, 0, 0, {1, 2})};
+  EXPECT_EQ(Keep(gone, {1, 2, 3, 4}, Knows({{3, 5.f}, {4, 5.f}})), (std::vector<char>{0}));
+  // One against one: the newer decides.
+  EXPECT_EQ(Keep({Voxel(5, 0, 0, {1})}, {1, 2}, Knows({{2, 5.f}})), (std::vector<char>{0}));
+  EXPECT_EQ(Keep({Voxel(5, 0, 0, {2})}, {1, 2}, Knows({{1, 5.f}})), (std::vector<char>{1}));
 }
 
 TEST(VoxelConsensus, SessionsThatWereElsewhereDoNotCount) {
