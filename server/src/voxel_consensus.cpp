@@ -39,9 +39,9 @@ std::vector<char> VoxelsWithConsensus(const std::vector<const AggregateVoxel*>& 
           }
         }
         const size_t filled_by = v.sessions.size();
-        keep[i] = there_not_filled < filled_by ||
-                  (there_not_filled == filled_by && !v.sessions.empty() &&
-                   v.sessions.back() > newest_not_filled);
+        keep[i] =
+            there_not_filled < filled_by || (there_not_filled == filled_by && !v.sessions.empty() &&
+                                             v.sessions.back() > newest_not_filled);
       },
       /*grain=*/1024);
   return keep;
