@@ -74,7 +74,7 @@ void DropUnreproducedVoxels(Neighbourhood& n, ObservedCache& cache, double reach
   std::map<int64_t, const ObservedArea*> areas;
   for (const auto& [s, area] : AreasOf(n.sessions, cache)) areas.emplace(s, area);
   const std::vector<char> keep = VoxelsWithConsensus(
-      n.voxels, std::vector<int64_t>(n.sessions.begin(), n.sessions.end()),
+      n.voxels, n.global, std::vector<int64_t>(n.sessions.begin(), n.sessions.end()),
       [&](int64_t s, const Point& p) {
         const auto it = areas.find(s);
         return it != areas.end() && it->second->IsObserved(p);

@@ -10,12 +10,10 @@
 namespace mapdelta::server {
 
 std::vector<char> VoxelsWithConsensus(const std::vector<const AggregateVoxel*>& voxels,
+                                      const PointCloud& centroids,
                                       const std::vector<int64_t>& sessions,
                                       const SessionObserves& observes, double reach_m,
                                       int threads) {
-  PointCloud centroids;
-  centroids.reserve(voxels.size());
-  for (const AggregateVoxel* v : voxels) centroids.push_back(v->centroid);
   const NeighborIndex index(centroids);
   std::vector<char> keep(voxels.size(), 1);
   ParallelFor(

@@ -38,8 +38,10 @@ namespace mapdelta::server {
 // Whether `session`'s observed octree knows the place (free or occupied).
 using SessionObserves = std::function<bool(int64_t session, const Point& p)>;
 
-// keep[i] for voxels[i]; `sessions` are all sessions that may have been there (sorted or not).
+// keep[i] for voxels[i], whose centroids are centroids[i] (the tile neighbourhood's global cloud);
+// `sessions` are all sessions that may have been there (sorted or not).
 std::vector<char> VoxelsWithConsensus(const std::vector<const AggregateVoxel*>& voxels,
+                                      const PointCloud& centroids,
                                       const std::vector<int64_t>& sessions,
                                       const SessionObserves& observes, double reach_m, int threads);
 

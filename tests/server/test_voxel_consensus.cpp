@@ -29,8 +29,12 @@ std::vector<char> Keep(const std::vector<AggregateVoxel>& voxels,
                        const std::vector<int64_t>& sessions, const SessionObserves& observes,
                        double reach_m = 1.0) {
   std::vector<const AggregateVoxel*> pointers;
-  for (const AggregateVoxel& v : voxels) pointers.push_back(&v);
-  return VoxelsWithConsensus(pointers, sessions, observes, reach_m, /*threads=*/2);
+  PointCloud centroids;
+  for (const AggregateVoxel& v : voxels) {
+    pointers.push_back(&v);
+    centroids.push_back(v.centroid);
+  }
+  return VoxelsWithConsensus(pointers, centroids, sessions, observes, reach_m, /*threads=*/2);
 }
 
 TEST(VoxelConsensus, OneSessionAloneKeepsEveryVoxel) {
