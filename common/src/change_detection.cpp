@@ -122,8 +122,12 @@ PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prio
 }
 
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
-                        int threads) {
+                        int threads, double removed_radius_m) {
   CheckThreshold(th_ch_m);
+  if (!(removed_radius_m >= 0 && removed_radius_m <= th_ch_m)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "change detection: the removed points' clear radius must be in [0, th_ch]");
+  }
   Changes changes;
   {
     const NeighborIndex prior_index(observed_prior);
@@ -131,7 +135,8 @@ Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_pri
   }
   const NeighborIndex global_index(global);
   changes.removed_points =
-      Select(observed_prior, FarFrom(observed_prior, global_index, th_ch_m, threads));
+      Select(observed_prior, FarFrom(observed_prior, global_index,
+                                     removed_radius_m > 0 ? removed_radius_m : th_ch_m, threads));
   return changes;
 }
 
@@ -175,6 +180,10 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
   if (!(params.new_footprint_radius_m >= 0 && std::isfinite(params.new_footprint_radius_m))) {
     throw Error(ErrorCode::kInvalidArgument,
                 "change detection: new_footprint_radius_m must be a distance >= 0 (0 = off)");
+  }
+  if (!(params.removed_clear_radius_m >= 0 && params.removed_clear_radius_m <= params.th_ch_m)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "change detection: removed_clear_radius_m must be in [0, th_ch] (0 = th_ch)");
   }
   if (keyframes.keyframes.empty()) {
     throw Error(ErrorCode::kInvalidArgument, "change detection: no keyframes");
@@ -221,8 +230,11 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
   report("classification", 0.0);
   result.observed_prior = ObservedPriorCloud(result.prior, result.global, result.observed,
                                              params.th_ch_m, params.threads);
-  result.changes =
-      ClassifyChanges(result.global, result.observed_prior, params.th_ch_m, params.threads);
+  // The clear radius only with the per-point evidence: without it, the distance is the evidence.
+  const double removed_radius =
+      params.removed_min_free_keyframes > 0 ? params.removed_clear_radius_m : 0.0;
+  result.changes = ClassifyChanges(result.global, result.observed_prior, params.th_ch_m,
+                                   params.threads, removed_radius);
   result.changes.new_points = WithinPriorFootprint(result.changes.new_points, result.prior,
                                                    params.new_footprint_radius_m, params.threads);
   if (params.new_not_seen_free) {

@@ -152,10 +152,11 @@ std::vector<int64_t> ObservingSessions(const std::set<int64_t>& tile_sessions, O
 
 // A removed point's evidence under the confident free-space rule, session by session: a session
 // supports it when its own octree sees the point's voxel free with min_free keyframes net of
-// hits; it contradicts it when it has aggregated points within th_ch or its octree holds the
-// voxel as not free at all (a surface seen there); a session that only grazed the voxel (free,
-// with less evidence) observed too little to say and is left out of both. Summing stray rays of
-// many sessions in one merged octree (the rule before) let every upload add false removals.
+// hits; it contradicts it when it has aggregated points within th_ch (the clear radius, if set)
+// or its octree holds the voxel as not free at all (a surface seen there); a session that only
+// grazed the voxel (free, with less evidence) observed too little to say and is left out of both.
+// Summing stray rays of many sessions in one merged octree (the rule before) let every upload add
+// false removals.
 void RemovedEvidence(const std::vector<std::pair<int64_t, const ObservedArea*>>& areas,
                      const Point& p, int min_free, const std::set<int64_t>& near, ChangePoint* c) {
   for (const auto& [s, area] : areas) {
@@ -213,7 +214,10 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
     // Step 2: paper Alg. 1 (observed prior) and Alg. 2 (new / removed) on the neighbourhood.
     const PointCloud observed_prior =
         ObservedPriorCloud(n.prior, n.global, observed, th_ch, detection.threads);
-    Changes changes = ClassifyChanges(n.global, observed_prior, th_ch, detection.threads);
+    // With per-session free evidence a removal needs only the clear radius free of points.
+    const double removed_radius = min_free > 0 ? detection.removed_clear_radius_m : 0.0;
+    Changes changes =
+        ClassifyChanges(n.global, observed_prior, th_ch, detection.threads, removed_radius);
     changes.new_points = WithinPriorFootprint(changes.new_points, n.prior,
                                               detection.new_footprint_radius_m, detection.threads);
 
@@ -240,7 +244,8 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
     const auto tile_areas = AreasOf(tile_sessions, cache);
     for (const Point& p : changes.removed_points) {
       if (!bounds.Contains(p)) continue;
-      const std::set<int64_t> near = SessionsNear(n, global_index, p, radius);
+      const std::set<int64_t> near = SessionsNear(
+          n, global_index, p, removed_radius > 0 ? static_cast<float>(removed_radius) : radius);
       ChangePoint c;
       c.position = p;
       c.kind = ChangeKind::kRemoved;

@@ -56,7 +56,7 @@ struct DetectOptions {
 // applied first and the ablation options then override single parts of it.
 bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out, DetectOptions* o) {
   ChangeDetectionParams& params = o->params;
-  double sigma_per_m2 = 0, footprint_radius = 0;
+  double sigma_per_m2 = 0, footprint_radius = 0, clear_radius = 0;
   int stop_at_prior = 0, min_free_keyframes = 0, new_not_seen_free = 0;
   cli::Parser cli("mapdelta-detect", kDetectDescription);
   cli.Option("prior", &o->prior_path, "prior map cloud (.pcd/.ply/.las)", "CLOUD")
@@ -87,6 +87,10 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
       .Option("removed-min-free-keyframes", &min_free_keyframes,
               "ablation: override how many keyframes must see a removed point's voxel free "
               "(0 = any known voxel)")
+      .Option("removed-clear-radius", &clear_radius,
+              "ablation: override how far a removed point must be from the global cloud when "
+              "its voxel is seen free [m] (0 = th_ch)",
+              "M")
       .Option("footprint-radius", &footprint_radius,
               "ablation: override how far (horizontally) from the prior a new point may lie "
               "[m] (0 = anywhere)",
@@ -121,6 +125,7 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
   if (cli.Given("removed-min-free-keyframes"))
     params.removed_min_free_keyframes = min_free_keyframes;
   if (cli.Given("footprint-radius")) params.new_footprint_radius_m = footprint_radius;
+  if (cli.Given("removed-clear-radius")) params.removed_clear_radius_m = clear_radius;
   return true;
 }
 
@@ -179,6 +184,7 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
                             {"removed_min_free_keyframes", params.removed_min_free_keyframes},
                             {"new_footprint_radius_m", params.new_footprint_radius_m},
                             {"new_not_seen_free", params.new_not_seen_free},
+                            {"removed_clear_radius_m", params.removed_clear_radius_m},
                             {"rho_o_m", params.observed.resolution_m},
                             {"cloud_voxel_m", params.cloud_voxel_m},
                             {"align", align},

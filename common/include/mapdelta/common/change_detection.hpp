@@ -29,6 +29,10 @@ struct ChangeDetectionParams {
   // hits): where the session's rays passed through more often than they ended, its points are
   // depth noise, not a new surface (NotSeenFree); false = the paper's Alg. 2.
   bool new_not_seen_free = false;
+  // With removed_min_free_keyframes > 0: a removed point needs no global point within this
+  // distance instead of th_ch (RemovedPoints); 0 = th_ch (the paper's Alg. 2). The seen-free
+  // test is the evidence then, and the distance only keeps the surfaces the session did see.
+  double removed_clear_radius_m = 0.0;
   // Threads for every step of DetectChanges, the observed area's rays included (it overrides
   // observed.threads there); 0 = every hardware thread (parallel.hpp).
   int threads = 0;
@@ -72,9 +76,10 @@ PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prio
 // voxels rays also cross), so it judges new points only and removals keep the whole cloud.
 PointCloud NotSeenFree(const PointCloud& points, const ObservedArea& observed, int threads);
 
-// Alg. 2. `threads` as ChangeDetectionParams::threads.
+// Alg. 2. `threads` as ChangeDetectionParams::threads. A removed point must be farther than
+// removed_radius_m from `global` (0 = th_ch_m, as in the paper).
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
-                        int threads);
+                        int threads, double removed_radius_m = 0.0);
 
 // Every keyframe's depths below max_depth_m back-projected into the map frame, voxel-downsampled
 // to voxel_m (per keyframe and once more at the end, so memory stays bounded).
