@@ -9,6 +9,7 @@
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
 #include "mapdelta/common/parallel.hpp"
+#include "mapdelta/common/removed_band.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
 
 namespace mapdelta {
@@ -71,6 +72,8 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->removed_min_free_keyframes = 0;
     params->new_footprint_radius_m = 0.0;
     params->new_not_seen_free = false;
+    params->removed_clear_radius_m = 0.0;
+    params->removed_grow_radius_m = 0.0;
   } else if (rule == "confident") {
     params->observed.depth_sigma_per_m2 = 1.25e-3;
     params->observed.depth_sigma_factor = 3.0;
@@ -78,6 +81,8 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->removed_min_free_keyframes = 3;
     params->new_footprint_radius_m = 1.6;
     params->new_not_seen_free = true;
+    params->removed_clear_radius_m = 2.4;
+    params->removed_grow_radius_m = 1.6;
   } else {
     throw Error(ErrorCode::kInvalidArgument,
                 "free-space rule '" + rule + "': expected paper or confident");
@@ -122,12 +127,8 @@ PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prio
 }
 
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
-                        int threads, double removed_radius_m) {
+                        int threads) {
   CheckThreshold(th_ch_m);
-  if (!(removed_radius_m >= 0 && removed_radius_m <= th_ch_m)) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "change detection: the removed points' clear radius must be in [0, th_ch]");
-  }
   Changes changes;
   {
     const NeighborIndex prior_index(observed_prior);
@@ -135,8 +136,7 @@ Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_pri
   }
   const NeighborIndex global_index(global);
   changes.removed_points =
-      Select(observed_prior, FarFrom(observed_prior, global_index,
-                                     removed_radius_m > 0 ? removed_radius_m : th_ch_m, threads));
+      Select(observed_prior, FarFrom(observed_prior, global_index, th_ch_m, threads));
   return changes;
 }
 
@@ -181,9 +181,11 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
     throw Error(ErrorCode::kInvalidArgument,
                 "change detection: new_footprint_radius_m must be a distance >= 0 (0 = off)");
   }
-  if (!(params.removed_clear_radius_m >= 0 && params.removed_clear_radius_m <= params.th_ch_m)) {
+  if (!(params.removed_clear_radius_m >= 0 && params.removed_clear_radius_m <= params.th_ch_m) ||
+      !(params.removed_grow_radius_m >= 0 && std::isfinite(params.removed_grow_radius_m))) {
     throw Error(ErrorCode::kInvalidArgument,
-                "change detection: removed_clear_radius_m must be in [0, th_ch] (0 = th_ch)");
+                "change detection: removed_clear_radius_m must be in [0, th_ch] and "
+                "removed_grow_radius_m a distance >= 0 (0 = off)");
   }
   if (keyframes.keyframes.empty()) {
     throw Error(ErrorCode::kInvalidArgument, "change detection: no keyframes");
@@ -230,11 +232,8 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
   report("classification", 0.0);
   result.observed_prior = ObservedPriorCloud(result.prior, result.global, result.observed,
                                              params.th_ch_m, params.threads);
-  // The clear radius only with the per-point evidence: without it, the distance is the evidence.
-  const double removed_radius =
-      params.removed_min_free_keyframes > 0 ? params.removed_clear_radius_m : 0.0;
-  result.changes = ClassifyChanges(result.global, result.observed_prior, params.th_ch_m,
-                                   params.threads, removed_radius);
+  result.changes =
+      ClassifyChanges(result.global, result.observed_prior, params.th_ch_m, params.threads);
   result.changes.new_points = WithinPriorFootprint(result.changes.new_points, result.prior,
                                                    params.new_footprint_radius_m, params.threads);
   if (params.new_not_seen_free) {
@@ -242,8 +241,21 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
         NotSeenFree(result.changes.new_points, result.observed, params.threads);
   }
   if (params.removed_min_free_keyframes > 0) {
-    result.changes.removed_points = SeenFree(result.changes.removed_points, result.observed,
-                                             params.removed_min_free_keyframes, params.threads);
+    const int min_free = params.removed_min_free_keyframes;
+    PointCloud& removed = result.changes.removed_points;
+    removed = SeenFree(removed, result.observed, min_free, params.threads);
+    if (params.removed_clear_radius_m > 0) {
+      PointCloud band =
+          SeenFree(RemovedBand(result.observed_prior, result.global, params.removed_clear_radius_m,
+                               params.th_ch_m, params.threads),
+                   result.observed, min_free, params.threads);
+      if (params.removed_grow_radius_m > 0) {
+        std::vector<char> linked(band.size(), 0);
+        for (size_t j : GrowFrom(removed, band, params.removed_grow_radius_m)) linked[j] = 1;
+        band = Select(band, linked);
+      }
+      removed.insert(removed.end(), band.begin(), band.end());
+    }
   }
   report("classification", 1.0);
   MD_LOG(kInfo, "change detection: observed prior "

@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "mapdelta/common/change_detection.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
 #include "mapdelta/common/parallel.hpp"
+#include "mapdelta/common/removed_band.hpp"
 #include "voxel_consensus.hpp"
 
 namespace mapdelta::server {
@@ -152,11 +154,10 @@ std::vector<int64_t> ObservingSessions(const std::set<int64_t>& tile_sessions, O
 
 // A removed point's evidence under the confident free-space rule, session by session: a session
 // supports it when its own octree sees the point's voxel free with min_free keyframes net of
-// hits; it contradicts it when it has aggregated points within th_ch (the clear radius, if set)
-// or its octree holds the voxel as not free at all (a surface seen there); a session that only
-// grazed the voxel (free, with less evidence) observed too little to say and is left out of both.
-// Summing stray rays of many sessions in one merged octree (the rule before) let every upload add
-// false removals.
+// hits; it contradicts it when it has aggregated points within th_ch or its octree holds the
+// voxel as not free at all (a surface seen there); a session that only grazed the voxel (free,
+// with less evidence) observed too little to say and is left out of both. Summing stray rays of
+// many sessions in one merged octree (the rule before) let every upload add false removals.
 void RemovedEvidence(const std::vector<std::pair<int64_t, const ObservedArea*>>& areas,
                      const Point& p, int min_free, const std::set<int64_t>& near, ChangePoint* c) {
   for (const auto& [s, area] : areas) {
@@ -214,10 +215,7 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
     // Step 2: paper Alg. 1 (observed prior) and Alg. 2 (new / removed) on the neighbourhood.
     const PointCloud observed_prior =
         ObservedPriorCloud(n.prior, n.global, observed, th_ch, detection.threads);
-    // With per-session free evidence a removal needs only the clear radius free of points.
-    const double removed_radius = min_free > 0 ? detection.removed_clear_radius_m : 0.0;
-    Changes changes =
-        ClassifyChanges(n.global, observed_prior, th_ch, detection.threads, removed_radius);
+    Changes changes = ClassifyChanges(n.global, observed_prior, th_ch, detection.threads);
     changes.new_points = WithinPriorFootprint(changes.new_points, n.prior,
                                               detection.new_footprint_radius_m, detection.threads);
 
@@ -242,16 +240,17 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
       out.changes.push_back(std::move(c));
     }
     const auto tile_areas = AreasOf(tile_sessions, cache);
-    for (const Point& p : changes.removed_points) {
-      if (!bounds.Contains(p)) continue;
-      const std::set<int64_t> near = SessionsNear(
-          n, global_index, p, removed_radius > 0 ? static_cast<float>(removed_radius) : radius);
+    // A removed point's evidence; nullopt when no session supports it. `near_radius`: the
+    // distance within which a session's points contradict it (th_ch, or the clear radius).
+    const auto removed_change = [&](const Point& p,
+                                    float near_radius) -> std::optional<ChangePoint> {
+      const std::set<int64_t> near = SessionsNear(n, global_index, p, near_radius);
       ChangePoint c;
       c.position = p;
       c.kind = ChangeKind::kRemoved;
       if (min_free > 0) {
         RemovedEvidence(tile_areas, p, min_free, near, &c);
-        if (c.supported_by.empty()) continue;  // no session saw the place free on its own
+        if (c.supported_by.empty()) return std::nullopt;  // no session saw it free on its own
       } else {  // the paper's rule: every observing session without points near supports it
         c.observed_by = ObservingSessions(tile_sessions, cache, p, near);
         for (int64_t s : c.observed_by) {
@@ -259,7 +258,40 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
         }
       }
       c.confidence = Confidence(c.supported_by.size(), c.observed_by.size());
-      out.changes.push_back(std::move(c));
+      return c;
+    };
+    // Band points (removed_band.hpp) grow from removals at th_ch anywhere in the neighbourhood,
+    // so those seeds are judged beyond the tile too.
+    // A th_ch below the rule's clear radius leaves no band.
+    const double clear = min_free > 0 && detection.removed_clear_radius_m < th_ch
+                             ? detection.removed_clear_radius_m
+                             : 0.0;
+    const bool grow = clear > 0 && detection.removed_grow_radius_m > 0;
+    PointCloud seeds;
+    for (const Point& p : changes.removed_points) {
+      if (!grow && !bounds.Contains(p)) continue;
+      std::optional<ChangePoint> c = removed_change(p, radius);
+      if (!c) continue;
+      if (grow) seeds.push_back(p);
+      if (bounds.Contains(p)) out.changes.push_back(std::move(*c));
+    }
+    if (clear > 0) {
+      std::vector<ChangePoint> band;
+      PointCloud band_points;
+      for (const Point& p :
+           RemovedBand(observed_prior, n.global, clear, th_ch, detection.threads)) {
+        if (!grow && !bounds.Contains(p)) continue;
+        if (std::optional<ChangePoint> c = removed_change(p, static_cast<float>(clear))) {
+          band_points.push_back(p);
+          band.push_back(std::move(*c));
+        }
+      }
+      std::vector<size_t> kept(band.size());
+      for (size_t j = 0; j < kept.size(); ++j) kept[j] = j;
+      if (grow) kept = GrowFrom(seeds, band_points, detection.removed_grow_radius_m);
+      for (size_t j : kept) {
+        if (bounds.Contains(band[j].position)) out.changes.push_back(std::move(band[j]));
+      }
     }
   }
   for (const ChangePoint& c : out.changes) {

@@ -66,7 +66,7 @@ struct Removed {
 class FreeSpaceServer {
  public:
   FreeSpaceServer(const std::string& rule, const fs::path& dir, bool voxel_consensus = true,
-                  const BoxScene& prior_scene = Prior()) {
+                  const BoxScene& prior_scene = Prior(), double th_ch_m = 2.4) {
     ServerConfig c;
     c.storage.database = (dir / (rule + std::to_string(voxel_consensus) + ".db")).string();
     c.storage.tile_size_m = 20;
@@ -76,7 +76,7 @@ class FreeSpaceServer {
     c.pipeline.pixel_stride = 1;
     c.pipeline.gicp_enabled = false;  // exact poses: the test is about the free space
     c.pipeline.free_space = rule;
-    c.classify.th_ch_m = 2.4;
+    c.classify.th_ch_m = th_ch_m;
     c.classify.voxel_consensus = voxel_consensus;
     service_ = std::make_unique<MapService>(c, OpenSqliteStorage(c.storage.database));
     const std::string prior = (dir / "prior.pcd").string();
@@ -100,6 +100,22 @@ class FreeSpaceServer {
     service_->RunQueuedJobsNow();
     const Json state = service_->GetJob(job);
     EXPECT_EQ(state["state"], "succeeded") << state.dump(2);
+  }
+
+  // Removed points on gone box A's top (z > 4) straight above `footprint`.
+  size_t RemovedOnTopOfAAbove(const Box& footprint) const {
+    size_t n = 0;
+    for (const TileId& t : service_->storage().tiles().ListAggregated(std::nullopt)) {
+      const auto changes = service_->storage().tiles().GetChanges(t);
+      if (!changes) continue;
+      for (const ChangePoint& p : DecodeChanges(changes->changes)) {
+        const Point& q = p.position;
+        n += p.kind == ChangeKind::kRemoved && kBoxA.Distance(q.cast<double>()) < 0.5 &&
+             q.z() > 4 && q.x() >= footprint.min.x() && q.x() <= footprint.max.x() &&
+             q.y() >= footprint.min.y() && q.y() <= footprint.max.y();
+      }
+    }
+    return n;
   }
 
   // new_in_ghost counts new points within 0.5 m of `ghost`.
@@ -196,6 +212,29 @@ TEST(CommitFreeSpace, AVoxelOtherSessionsSawWithoutFillingDoesNotMaskARemoval) {
   // Measured: 573 with (what sessions without the ghost find), 424 without.
   EXPECT_GT(with_consensus.gone, without.gone + 100);
   EXPECT_EQ(with_consensus.hidden, 0u);
+}
+
+// One session's depth holds a 2.2 m high ghost (noise, or a van parked for that drive) inside
+// gone box A's volume. Alg. 2 alone masks every prior point within th_ch (3.2 m here) of its
+// points, so A's top straight above it (2.8 m up) stays; the confident rule removes prior points
+// farther than its clear radius (2.4 m) from every current point when they link to the rest of
+// the removal.
+TEST(CommitFreeSpace, AGhostMasksAGoneBoxOnlyWithinTheClearRadius) {
+  log::SetLevel(log::Level::kWarn);
+  const fs::path dir = FreshTempDir("mds_free_space_clear");
+  const Box ghost{{16, 11.5, kGroundZ}, {18, 13.5, 1.8}};
+  FreeSpaceServer server("confident", dir, true, Prior(), /*th_ch_m=*/3.2);
+  server.Commit("car", [&](int64_t, const SE3& T) {
+    BoxScene s = Real();
+    s.boxes.push_back(ghost);
+    return s.Render(TestCamera(), T, kMaxDepth);
+  });
+  const size_t above_ghost = server.RemovedOnTopOfAAbove(ghost);
+  const Removed r = server.Count();
+  fs::remove_all(dir);
+  EXPECT_GT(above_ghost, 5u);
+  EXPECT_GT(r.gone, 20u);
+  EXPECT_EQ(r.hidden, 0u);
 }
 
 // The prior maps the ground only from y = 4 on; the cameras see the real ground down to

@@ -29,10 +29,15 @@ struct ChangeDetectionParams {
   // hits): where the session's rays passed through more often than they ended, its points are
   // depth noise, not a new surface (NotSeenFree); false = the paper's Alg. 2.
   bool new_not_seen_free = false;
-  // With removed_min_free_keyframes > 0: a removed point needs no global point within this
-  // distance instead of th_ch (RemovedPoints); 0 = th_ch (the paper's Alg. 2). The seen-free
-  // test is the evidence then, and the distance only keeps the surfaces the session did see.
+  // With removed_min_free_keyframes > 0, also the prior points nearer than th_ch to the global
+  // cloud but at least this far from it (RemovedBand) may be removed on the same evidence; 0 =
+  // only those at th_ch or farther (the paper's Alg. 2). Alg. 2's th_ch lets a stray point of
+  // depth noise mask a removed building's prior points 3.2 m around it.
   double removed_clear_radius_m = 0.0;
+  // With a clear radius: such a band point is removed only when a chain of band points, each
+  // within this distance of the next, links it to a removal at th_ch or farther (GrowFrom);
+  // 0 = band points stand alone. Near a surface the session saw, free evidence alone is weaker.
+  double removed_grow_radius_m = 0.0;
   // Threads for every step of DetectChanges, the observed area's rays included (it overrides
   // observed.threads there); 0 = every hardware thread (parallel.hpp).
   int threads = 0;
@@ -76,10 +81,9 @@ PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prio
 // voxels rays also cross), so it judges new points only and removals keep the whole cloud.
 PointCloud NotSeenFree(const PointCloud& points, const ObservedArea& observed, int threads);
 
-// Alg. 2. `threads` as ChangeDetectionParams::threads. A removed point must be farther than
-// removed_radius_m from `global` (0 = th_ch_m, as in the paper).
+// Alg. 2. `threads` as ChangeDetectionParams::threads.
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
-                        int threads, double removed_radius_m = 0.0);
+                        int threads);
 
 // Every keyframe's depths below max_depth_m back-projected into the map frame, voxel-downsampled
 // to voxel_m (per keyframe and once more at the end, so memory stays bounded).
