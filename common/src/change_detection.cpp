@@ -9,7 +9,6 @@
 #include "mapdelta/common/log.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
 #include "mapdelta/common/parallel.hpp"
-#include "mapdelta/common/removed_band.hpp"
 #include "mapdelta/common/voxel_grid.hpp"
 
 namespace mapdelta {
@@ -72,8 +71,7 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->removed_min_free_keyframes = 0;
     params->new_footprint_radius_m = 0.0;
     params->new_not_seen_free = false;
-    params->removed_clear_radius_m = 0.0;
-    params->removed_grow_radius_m = 0.0;
+    params->removed_mask_radius_m = 0.0;
   } else if (rule == "confident") {
     params->observed.depth_sigma_per_m2 = 1.25e-3;
     params->observed.depth_sigma_factor = 3.0;
@@ -81,8 +79,7 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->removed_min_free_keyframes = 3;
     params->new_footprint_radius_m = 1.6;
     params->new_not_seen_free = true;
-    params->removed_clear_radius_m = 2.4;
-    params->removed_grow_radius_m = 1.6;
+    params->removed_mask_radius_m = 0.8;
   } else {
     throw Error(ErrorCode::kInvalidArgument,
                 "free-space rule '" + rule + "': expected paper or confident");
@@ -124,6 +121,26 @@ PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prio
       },
       kPointGrain);
   return Select(points, keep);
+}
+
+std::vector<size_t> ReobservingPrior(const PointCloud& global, const PointCloud& prior,
+                                     double radius_m, int threads) {
+  if (!(radius_m > 0 && std::isfinite(radius_m))) {
+    throw Error(ErrorCode::kInvalidArgument, "re-observed prior: radius must be > 0");
+  }
+  std::vector<char> keep(global.size(), 0);
+  if (!prior.empty()) {
+    const NeighborIndex prior_index(prior);
+    const auto radius = static_cast<float>(radius_m);
+    ParallelFor(
+        global.size(), threads,
+        [&](size_t i) { keep[i] = prior_index.AnyWithin(global[i], radius); }, kPointGrain);
+  }
+  std::vector<size_t> out;
+  for (size_t i = 0; i < global.size(); ++i) {
+    if (keep[i]) out.push_back(i);
+  }
+  return out;
 }
 
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
@@ -181,11 +198,9 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
     throw Error(ErrorCode::kInvalidArgument,
                 "change detection: new_footprint_radius_m must be a distance >= 0 (0 = off)");
   }
-  if (!(params.removed_clear_radius_m >= 0 && params.removed_clear_radius_m <= params.th_ch_m) ||
-      !(params.removed_grow_radius_m >= 0 && std::isfinite(params.removed_grow_radius_m))) {
+  if (!(params.removed_mask_radius_m >= 0 && std::isfinite(params.removed_mask_radius_m))) {
     throw Error(ErrorCode::kInvalidArgument,
-                "change detection: removed_clear_radius_m must be in [0, th_ch] and "
-                "removed_grow_radius_m a distance >= 0 (0 = off)");
+                "change detection: removed_mask_radius_m must be a distance >= 0 (0 = off)");
   }
   if (keyframes.keyframes.empty()) {
     throw Error(ErrorCode::kInvalidArgument, "change detection: no keyframes");
@@ -241,21 +256,19 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
         NotSeenFree(result.changes.new_points, result.observed, params.threads);
   }
   if (params.removed_min_free_keyframes > 0) {
-    const int min_free = params.removed_min_free_keyframes;
-    PointCloud& removed = result.changes.removed_points;
-    removed = SeenFree(removed, result.observed, min_free, params.threads);
-    if (params.removed_clear_radius_m > 0) {
-      PointCloud band =
-          SeenFree(RemovedBand(result.observed_prior, result.global, params.removed_clear_radius_m,
-                               params.th_ch_m, params.threads),
-                   result.observed, min_free, params.threads);
-      if (params.removed_grow_radius_m > 0) {
-        std::vector<char> linked(band.size(), 0);
-        for (size_t j : GrowFrom(removed, band, params.removed_grow_radius_m)) linked[j] = 1;
-        band = Select(band, linked);
-      }
-      removed.insert(removed.end(), band.begin(), band.end());
+    if (params.removed_mask_radius_m > 0) {  // only points that re-observe the prior mask
+      const std::vector<size_t> masking = ReobservingPrior(
+          result.global, result.prior, params.removed_mask_radius_m, params.threads);
+      PointCloud masking_points;
+      masking_points.reserve(masking.size());
+      for (size_t i : masking) masking_points.push_back(result.global[i]);
+      const NeighborIndex masking_index(masking_points);
+      result.changes.removed_points =
+          Select(result.observed_prior,
+                 FarFrom(result.observed_prior, masking_index, params.th_ch_m, params.threads));
     }
+    result.changes.removed_points = SeenFree(result.changes.removed_points, result.observed,
+                                             params.removed_min_free_keyframes, params.threads);
   }
   report("classification", 1.0);
   MD_LOG(kInfo, "change detection: observed prior "

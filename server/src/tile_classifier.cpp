@@ -2,12 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 
 #include "mapdelta/common/change_detection.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
 #include "mapdelta/common/parallel.hpp"
-#include "mapdelta/common/removed_band.hpp"
 #include "voxel_consensus.hpp"
 
 namespace mapdelta::server {
@@ -133,11 +131,31 @@ float Confidence(size_t supported, size_t observed) {
 }
 
 // Sessions that have aggregated points within radius of p.
-std::set<int64_t> SessionsNear(const Neighbourhood& n, const NeighborIndex& index, const Point& p,
-                               float radius) {
+// The sessions that filled a voxel within radius of p; `index` is built on the centroids of
+// `voxels`, in the same order.
+std::set<int64_t> SessionsNear(const std::vector<const AggregateVoxel*>& voxels,
+                               const NeighborIndex& index, const Point& p, float radius) {
   std::set<int64_t> out;
   for (size_t i : index.RadiusSearch(p, radius)) {
-    out.insert(n.voxels[i]->sessions.begin(), n.voxels[i]->sessions.end());
+    out.insert(voxels[i]->sessions.begin(), voxels[i]->sessions.end());
+  }
+  return out;
+}
+
+// The voxels that may mask a removal (Alg. 2: those within th_ch of it) and their centroids:
+// under a mask radius (ChangeDetectionParams::removed_mask_radius_m) only those that re-observe
+// a prior surface, else all of them.
+struct MaskingVoxels {
+  std::vector<const AggregateVoxel*> voxels;
+  PointCloud centroids;
+};
+
+MaskingVoxels MaskingVoxelsOf(const Neighbourhood& n, double mask_radius_m, int threads) {
+  if (!(mask_radius_m > 0)) return {n.voxels, n.global};
+  MaskingVoxels out;
+  for (size_t i : ReobservingPrior(n.global, n.prior, mask_radius_m, threads)) {
+    out.voxels.push_back(n.voxels[i]);
+    out.centroids.push_back(n.global[i]);
   }
   return out;
 }
@@ -154,9 +172,10 @@ std::vector<int64_t> ObservingSessions(const std::set<int64_t>& tile_sessions, O
 
 // A removed point's evidence under the confident free-space rule, session by session: a session
 // supports it when its own octree sees the point's voxel free with min_free keyframes net of
-// hits; it contradicts it when it has aggregated points within th_ch or its octree holds the
-// voxel as not free at all (a surface seen there); a session that only grazed the voxel (free,
-// with less evidence) observed too little to say and is left out of both. Summing stray rays of
+// hits; it contradicts it when it has aggregated points within th_ch (of those that may mask it,
+// MaskingVoxels) or its octree holds the voxel as not free at all (a surface seen there); a
+// session that only grazed the voxel (free, with less evidence) observed too little to say and
+// is left out of both. Summing stray rays of
 // many sessions in one merged octree (the rule before) let every upload add false removals.
 void RemovedEvidence(const std::vector<std::pair<int64_t, const ObservedArea*>>& areas,
                      const Point& p, int min_free, const std::set<int64_t>& near, ChangePoint* c) {
@@ -216,6 +235,16 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
     const PointCloud observed_prior =
         ObservedPriorCloud(n.prior, n.global, observed, th_ch, detection.threads);
     Changes changes = ClassifyChanges(n.global, observed_prior, th_ch, detection.threads);
+    const MaskingVoxels masking =
+        MaskingVoxelsOf(n, min_free > 0 ? detection.removed_mask_radius_m : 0.0, detection.threads);
+    const NeighborIndex masking_index(masking.centroids);
+    if (masking.voxels.size() < n.voxels.size()) {  // fewer masks: Alg. 2's removed test again
+      changes.removed_points.clear();
+      for (const Point& p : observed_prior) {
+        if (!masking_index.AnyWithin(p, static_cast<float>(th_ch), /*inclusive=*/false))
+          changes.removed_points.push_back(p);
+      }
+    }
     changes.new_points = WithinPriorFootprint(changes.new_points, n.prior,
                                               detection.new_footprint_radius_m, detection.threads);
 
@@ -240,17 +269,15 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
       out.changes.push_back(std::move(c));
     }
     const auto tile_areas = AreasOf(tile_sessions, cache);
-    // A removed point's evidence; nullopt when no session supports it. `near_radius`: the
-    // distance within which a session's points contradict it (th_ch, or the clear radius).
-    const auto removed_change = [&](const Point& p,
-                                    float near_radius) -> std::optional<ChangePoint> {
-      const std::set<int64_t> near = SessionsNear(n, global_index, p, near_radius);
+    for (const Point& p : changes.removed_points) {
+      if (!bounds.Contains(p)) continue;
+      const std::set<int64_t> near = SessionsNear(masking.voxels, masking_index, p, radius);
       ChangePoint c;
       c.position = p;
       c.kind = ChangeKind::kRemoved;
       if (min_free > 0) {
         RemovedEvidence(tile_areas, p, min_free, near, &c);
-        if (c.supported_by.empty()) return std::nullopt;  // no session saw it free on its own
+        if (c.supported_by.empty()) continue;  // no session saw the place free on its own
       } else {  // the paper's rule: every observing session without points near supports it
         c.observed_by = ObservingSessions(tile_sessions, cache, p, near);
         for (int64_t s : c.observed_by) {
@@ -258,40 +285,7 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
         }
       }
       c.confidence = Confidence(c.supported_by.size(), c.observed_by.size());
-      return c;
-    };
-    // Band points (removed_band.hpp) grow from removals at th_ch anywhere in the neighbourhood,
-    // so those seeds are judged beyond the tile too.
-    // A th_ch below the rule's clear radius leaves no band.
-    const double clear = min_free > 0 && detection.removed_clear_radius_m < th_ch
-                             ? detection.removed_clear_radius_m
-                             : 0.0;
-    const bool grow = clear > 0 && detection.removed_grow_radius_m > 0;
-    PointCloud seeds;
-    for (const Point& p : changes.removed_points) {
-      if (!grow && !bounds.Contains(p)) continue;
-      std::optional<ChangePoint> c = removed_change(p, radius);
-      if (!c) continue;
-      if (grow) seeds.push_back(p);
-      if (bounds.Contains(p)) out.changes.push_back(std::move(*c));
-    }
-    if (clear > 0) {
-      std::vector<ChangePoint> band;
-      PointCloud band_points;
-      for (const Point& p :
-           RemovedBand(observed_prior, n.global, clear, th_ch, detection.threads)) {
-        if (!grow && !bounds.Contains(p)) continue;
-        if (std::optional<ChangePoint> c = removed_change(p, static_cast<float>(clear))) {
-          band_points.push_back(p);
-          band.push_back(std::move(*c));
-        }
-      }
-      std::vector<size_t> kept(band.size());
-      for (size_t j = 0; j < kept.size(); ++j) kept[j] = j;
-      if (grow) kept = GrowFrom(seeds, band_points, detection.removed_grow_radius_m);
-      for (size_t j : kept) {
-        if (bounds.Contains(band[j].position)) out.changes.push_back(std::move(band[j]));
-      }
+      out.changes.push_back(std::move(c));
     }
   }
   for (const ChangePoint& c : out.changes) {

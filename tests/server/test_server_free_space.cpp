@@ -185,43 +185,37 @@ TEST(CommitFreeSpace, StrayKeyframesOfSeveralSessionsDoNotAddUpToARemoval) {
   EXPECT_GT(r.gone, 20u);
 }
 
-// One session's depth holds a ghost (noise, or a car parked for that drive only) inside gone box
-// A's volume; two later sessions see through that place. With voxel consensus the ghost's
-// voxels (filled by one session, where two others were without filling them) are left out, so
-// box A is reported removed; without it the ghost's points lie within th_ch of box A's prior
-// points and mask the removal.
+// The first session drove by before box A was demolished; two later sessions see through that
+// place. With voxel consensus the first session's voxels on A (filled by one session, where two
+// others were without filling them) are left out, so box A is reported removed; without it
+// those voxels re-observe A's prior surface and mask the removal.
 TEST(CommitFreeSpace, AVoxelOtherSessionsSawWithoutFillingDoesNotMaskARemoval) {
   log::SetLevel(log::Level::kWarn);
   const fs::path dir = FreshTempDir("mds_free_space_consensus");
-  const Box ghost{{16, 11.5, kGroundZ}, {18, 13.5, 2.0}};
-  const auto with_ghost = [&](int64_t, const SE3& T) {
-    BoxScene s = Real();
-    s.boxes.push_back(ghost);
-    return s.Render(TestCamera(), T, kMaxDepth);
+  const auto before = [](int64_t, const SE3& T) {
+    return Prior().Render(TestCamera(), T, kMaxDepth);
   };
   const auto real = [](int64_t, const SE3& T) { return Real().Render(TestCamera(), T, kMaxDepth); };
   Removed with_consensus, without;
   for (const bool consensus : {true, false}) {
     FreeSpaceServer server("confident", dir, consensus);
-    server.Commit("car-1", with_ghost);
+    server.Commit("car-1", before);
     server.Commit("car-2", real);
     server.Commit("car-3", real);
     (consensus ? with_consensus : without) = server.Count();
   }
   fs::remove_all(dir);
-  // Measured: 573 with (what sessions without the ghost find), 424 without.
   EXPECT_GT(with_consensus.gone, without.gone + 100);
   EXPECT_EQ(with_consensus.hidden, 0u);
 }
 
 // One session's depth holds a 2.2 m high ghost (noise, or a van parked for that drive) inside
-// gone box A's volume. Alg. 2 alone masks every prior point within th_ch (3.2 m here) of its
-// points, so A's top straight above it (2.8 m up) stays; the confident rule removes prior points
-// farther than its clear radius (2.4 m) from every current point when they link to the rest of
-// the removal.
-TEST(CommitFreeSpace, AGhostMasksAGoneBoxOnlyWithinTheClearRadius) {
+// gone box A's volume. Alg. 2 lets every current point mask the prior points within th_ch (3.2 m
+// here), so A's top straight above the ghost (2.8 m up) would stay; under the confident rule
+// only points that re-observe a prior surface mask, and the ghost's upper part re-observes none.
+TEST(CommitFreeSpace, AGhostThatReobservesNoPriorSurfaceDoesNotMaskARemoval) {
   log::SetLevel(log::Level::kWarn);
-  const fs::path dir = FreshTempDir("mds_free_space_clear");
+  const fs::path dir = FreshTempDir("mds_free_space_mask");
   const Box ghost{{16, 11.5, kGroundZ}, {18, 13.5, 1.8}};
   FreeSpaceServer server("confident", dir, true, Prior(), /*th_ch_m=*/3.2);
   server.Commit("car", [&](int64_t, const SE3& T) {

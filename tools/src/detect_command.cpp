@@ -56,7 +56,7 @@ struct DetectOptions {
 // applied first and the ablation options then override single parts of it.
 bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out, DetectOptions* o) {
   ChangeDetectionParams& params = o->params;
-  double sigma_per_m2 = 0, footprint_radius = 0, clear_radius = 0, grow_radius = 0;
+  double sigma_per_m2 = 0, footprint_radius = 0, mask_radius = 0;
   int stop_at_prior = 0, min_free_keyframes = 0, new_not_seen_free = 0;
   cli::Parser cli("mapdelta-detect", kDetectDescription);
   cli.Option("prior", &o->prior_path, "prior map cloud (.pcd/.ply/.las)", "CLOUD")
@@ -87,13 +87,9 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
       .Option("removed-min-free-keyframes", &min_free_keyframes,
               "ablation: override how many keyframes must see a removed point's voxel free "
               "(0 = any known voxel)")
-      .Option("removed-clear-radius", &clear_radius,
-              "ablation: override how far from the global cloud a prior point within th_ch must "
-              "be to be removed on its free evidence [m] (0 = th_ch only)",
-              "M")
-      .Option("removed-grow-radius", &grow_radius,
-              "ablation: override the chain distance that links such a point to a removal at "
-              "th_ch [m] (0 = not needed)",
+      .Option("removed-mask-radius", &mask_radius,
+              "ablation: override how near a prior point a global point must be to mask the "
+              "removals within th_ch of it [m] (0 = every global point masks)",
               "M")
       .Option("footprint-radius", &footprint_radius,
               "ablation: override how far (horizontally) from the prior a new point may lie "
@@ -129,8 +125,7 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
   if (cli.Given("removed-min-free-keyframes"))
     params.removed_min_free_keyframes = min_free_keyframes;
   if (cli.Given("footprint-radius")) params.new_footprint_radius_m = footprint_radius;
-  if (cli.Given("removed-clear-radius")) params.removed_clear_radius_m = clear_radius;
-  if (cli.Given("removed-grow-radius")) params.removed_grow_radius_m = grow_radius;
+  if (cli.Given("removed-mask-radius")) params.removed_mask_radius_m = mask_radius;
   return true;
 }
 
@@ -189,8 +184,7 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
                             {"removed_min_free_keyframes", params.removed_min_free_keyframes},
                             {"new_footprint_radius_m", params.new_footprint_radius_m},
                             {"new_not_seen_free", params.new_not_seen_free},
-                            {"removed_clear_radius_m", params.removed_clear_radius_m},
-                            {"removed_grow_radius_m", params.removed_grow_radius_m},
+                            {"removed_mask_radius_m", params.removed_mask_radius_m},
                             {"rho_o_m", params.observed.resolution_m},
                             {"cloud_voxel_m", params.cloud_voxel_m},
                             {"align", align},

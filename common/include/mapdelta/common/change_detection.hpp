@@ -5,6 +5,7 @@
 // Parameter names follow the paper: th_ch, th_d, th_f, rho_o.
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "mapdelta/common/keyframes.hpp"
 #include "mapdelta/common/observed_area.hpp"
@@ -29,15 +30,12 @@ struct ChangeDetectionParams {
   // hits): where the session's rays passed through more often than they ended, its points are
   // depth noise, not a new surface (NotSeenFree); false = the paper's Alg. 2.
   bool new_not_seen_free = false;
-  // With removed_min_free_keyframes > 0, also the prior points nearer than th_ch to the global
-  // cloud but at least this far from it (RemovedBand) may be removed on the same evidence; 0 =
-  // only those at th_ch or farther (the paper's Alg. 2). Alg. 2's th_ch lets a stray point of
-  // depth noise mask a removed building's prior points 3.2 m around it.
-  double removed_clear_radius_m = 0.0;
-  // With a clear radius: such a band point is removed only when a chain of band points, each
-  // within this distance of the next, links it to a removal at th_ch or farther (GrowFrom);
-  // 0 = band points stand alone. Near a surface the session saw, free evidence alone is weaker.
-  double removed_grow_radius_m = 0.0;
+  // With removed_min_free_keyframes > 0: a global point masks the prior points within th_ch of
+  // it (Alg. 2) only when it lies within this distance of some prior point, i.e. re-observes a
+  // prior surface (ReobservingPrior); 0 = every global point masks (the paper). th_ch allows
+  // for the depth error of a surface seen again; a point of a new object or of depth noise says
+  // nothing about the prior around it, yet masked a removed building 3.2 m around it.
+  double removed_mask_radius_m = 0.0;
   // Threads for every step of DetectChanges, the observed area's rays included (it overrides
   // observed.threads there); 0 = every hardware thread (parallel.hpp).
   int threads = 0;
@@ -52,6 +50,9 @@ struct ChangeDetectionParams {
 //                 (sigma = 1.25e-3 d^2: 0.5 px disparity at the paper rig's fx * B = 400 m px).
 //                 New points only within the prior's footprint (1.6 m: two cloud voxels) and
 //                 only where the session's own rays did not pass through more than end.
+//                 Removals are masked only by global points within 0.8 m (a cloud voxel) of
+//                 the prior (removed_mask_radius_m; measured on four paper cells: R_rm
+//                 +0.02-0.10 at the same or better P_rm, docs/results.md).
 //                 Rays without depth are not stopped at prior surfaces: measured on paper
 //                 S1_01 (docs/results.md), that part lowered R_rm by 0.036 and added no
 //                 precision once the voxel test was on (free_rays_stop_at_prior stays an option).
@@ -80,6 +81,11 @@ PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prio
 // precision in sparse depth fell (S1_dark big P_rm 0.828 -> 0.659: its few surface points lie in
 // voxels rays also cross), so it judges new points only and removals keep the whole cloud.
 PointCloud NotSeenFree(const PointCloud& points, const ObservedArea& observed, int threads);
+
+// The indices (ascending) of the points of `global` within radius_m of some point of `prior`:
+// those that re-observe a prior surface rather than a new object or depth noise.
+std::vector<size_t> ReobservingPrior(const PointCloud& global, const PointCloud& prior,
+                                     double radius_m, int threads);
 
 // Alg. 2. `threads` as ChangeDetectionParams::threads.
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,

@@ -1,0 +1,151 @@
+// Which global points mask a removal (issue 21, ChangeDetectionParams::removed_mask_radius_m,
+// ReobservingPrior): Alg. 2 keeps every prior point within th_ch of any global point; under the
+// confident rule only global points that re-observe the prior (within 0.8 m of a prior point)
+// do. A ghost in the depth (noise, or a van parked for that drive) inside a building that is
+// gone no longer hides the building's prior points 3.2 m around it; the ground seen again still
+// masks the prior points next to it.
+#include <gtest/gtest.h>
+
+#include "mapdelta/common/change_detection.hpp"
+#include "mapdelta/common/error.hpp"
+#include "wall_scene.hpp"
+
+namespace mapdelta {
+namespace {
+
+constexpr float kCameraHeight = 12.f;
+constexpr float kGoneTop = 6.f;      // a 6 m high box over x in [-4, 0], |y| <= 2: gone now
+constexpr float kStandingTop = 5.f;  // a 5 m high box over x in [2, 4], |y| <= 1: still there
+constexpr float kGhostZ = 3.5f;      // a 1 x 1 m slab at this height inside the gone box
+
+bool In(float x, float y, float x0, float x1, float half_width) {
+  return x >= x0 && x <= x1 && std::abs(y) <= half_width;
+}
+
+// Ground at z = 0 every 0.2 m over [-10, 10] m, the gone box's top and sides, the standing
+// box's top.
+PointCloud Prior() {
+  PointCloud prior;
+  for (float x = -10.f; x <= 10.f + 1e-4f; x += 0.2f) {
+    for (float y = -10.f; y <= 10.f + 1e-4f; y += 0.2f) {
+      prior.emplace_back(x, y, 0.f);
+      if (In(x, y, -4.f, 0.f, 2.f)) prior.emplace_back(x, y, kGoneTop);
+      if (In(x, y, 2.f, 4.f, 1.f)) prior.emplace_back(x, y, kStandingTop);
+    }
+  }
+  for (float z = 0.2f; z < kGoneTop; z += 0.2f) {
+    for (float t = -4.f; t <= 0.f + 1e-4f; t += 0.2f) {
+      prior.emplace_back(t, -2.f, z);
+      prior.emplace_back(t, 2.f, z);
+      prior.emplace_back(-4.f, t + 2.f, z);
+      prior.emplace_back(0.f, t + 2.f, z);
+    }
+  }
+  return prior;
+}
+
+// Five keyframes 12 m up looking down, 0.5 m apart in x: the ground where the gone box stood,
+// the standing box's top and the ghost.
+KeyframeFolder DriveOver() {
+  KeyframeFolder keyframes;
+  keyframes.camera = testing::SmallCamera();
+  const PinholeCamera& camera = keyframes.camera;
+  for (int k = 0; k < 5; ++k) {
+    Keyframe keyframe;
+    keyframe.t_ns = k + 1;
+    keyframe.T_map_cam.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();  // optical axis down
+    const float cx = -2.f + 0.5f * k;
+    keyframe.T_map_cam.translation() = Eigen::Vector3d(cx, 0, kCameraHeight);
+    keyframe.depth = testing::Wall(camera, kCameraHeight);
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        const auto at_height = [&](float z, float* x, float* y) {
+          const float d = kCameraHeight - z;
+          *x = cx + d * static_cast<float>((u - camera.cx) / camera.fx);
+          *y = -d * static_cast<float>((v - camera.cy) / camera.fy);
+          return d;
+        };
+        float x = 0, y = 0;
+        const float d_standing = at_height(kStandingTop, &x, &y);
+        if (In(x, y, 2.f, 4.f, 1.f)) keyframe.depth.at(u, v) = d_standing;
+        const float d_ghost = at_height(kGhostZ, &x, &y);
+        if (In(x, y, -2.5f, -1.5f, 0.5f)) keyframe.depth.at(u, v) = d_ghost;
+      }
+    }
+    keyframes.keyframes.push_back(keyframe);
+  }
+  return keyframes;
+}
+
+ChangeDetectionParams Confident(double mask_radius_m) {
+  ChangeDetectionParams params;
+  ApplyFreeSpaceRule("confident", &params);
+  params.cloud_voxel_m = 0.4;
+  params.observed = testing::SmallSceneParams();
+  params.removed_mask_radius_m = mask_radius_m;
+  return params;
+}
+
+struct RemovedCounts {
+  int top_over_ghost = 0, gone_box = 0, low_sides = 0, other = 0;
+};
+
+RemovedCounts Count(const PointCloud& removed) {
+  RemovedCounts counts;
+  for (const Point& p : removed) {
+    if (!In(p.x(), p.y(), -4.2f, 0.2f, 2.2f) || p.z() < 0.1f) {
+      ++counts.other;
+      continue;
+    }
+    ++counts.gone_box;
+    counts.top_over_ghost += p.z() > kGoneTop - 0.5f && In(p.x(), p.y(), -3.f, -1.f, 1.f);
+    counts.low_sides += p.z() < 2.f;
+  }
+  return counts;
+}
+
+TEST(RemovedMasking, AGhostInsideAGoneBuildingMasksItOnlyUnderThePapersTest) {
+  const KeyframeFolder keyframes = DriveOver();
+  const PointCloud prior = Prior();
+
+  // Every global point masks: the ghost hides the box's top 2.5 m above it.
+  const RemovedCounts all_mask =
+      Count(DetectChanges(keyframes, prior, Confident(0.0)).changes.removed_points);
+  EXPECT_EQ(all_mask.top_over_ghost, 0);
+  EXPECT_EQ(all_mask.other, 0);
+
+  // Only points that re-observe the prior mask: the ghost is 1.5 m or more from every prior
+  // point, so the top over it is removed; the ground seen again still masks the low sides.
+  const ChangeDetectionResult result = DetectChanges(keyframes, prior, Confident(0.8));
+  const RemovedCounts reobserved = Count(result.changes.removed_points);
+  EXPECT_GT(reobserved.top_over_ghost, 8);
+  EXPECT_GT(reobserved.gone_box, all_mask.gone_box + 20);
+  EXPECT_EQ(reobserved.low_sides, 0);
+  EXPECT_EQ(reobserved.other, 0);  // nothing of the ground or the standing box
+}
+
+TEST(RemovedMasking, OnlyWithTheFreeEvidence) {
+  const KeyframeFolder keyframes = DriveOver();
+  const PointCloud prior = Prior();
+  // Without the per-point free evidence the distance is the only evidence: every point masks.
+  ChangeDetectionParams paper = Confident(0.8);
+  paper.removed_min_free_keyframes = 0;
+  EXPECT_EQ(Count(DetectChanges(keyframes, prior, paper).changes.removed_points).top_over_ghost, 0);
+  EXPECT_THROW(DetectChanges(keyframes, prior, Confident(-1.0)), Error);
+}
+
+TEST(RemovedMasking, ReobservingPriorKeepsThePointsNearThePrior) {
+  const PointCloud prior = {{0, 0, 0}, {10, 0, 0}};
+  const PointCloud global = {{0.5f, 0, 0}, {5, 0, 0}, {10, 0.7f, 0}, {10, 0.9f, 0}};
+  EXPECT_EQ(ReobservingPrior(global, prior, 0.8, 1), (std::vector<size_t>{0, 2}));
+  EXPECT_TRUE(ReobservingPrior(global, {}, 0.8, 1).empty());
+  EXPECT_THROW(ReobservingPrior(global, prior, 0.0, 1), Error);
+  ChangeDetectionParams confident, paper;
+  ApplyFreeSpaceRule("confident", &confident);
+  ApplyFreeSpaceRule("paper", &paper);
+  EXPECT_EQ(confident.removed_mask_radius_m, 0.8);
+  EXPECT_EQ(paper.removed_mask_radius_m, 0.0);
+}
+
+}  // namespace
+}  // namespace mapdelta
