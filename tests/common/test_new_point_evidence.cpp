@@ -26,11 +26,7 @@ KeyframeFolder GhostAndObject() {
   keyframes.camera = testing::SmallCamera();
   const PinholeCamera& camera = keyframes.camera;
   for (int k = 0; k < 5; ++k) {
-    Keyframe keyframe;
-    keyframe.t_ns = k + 1;
-    keyframe.T_map_cam.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();  // optical axis down
-    keyframe.T_map_cam.translation() = Eigen::Vector3d(0, 0, 10);
-    keyframe.depth = testing::Wall(camera, 10.f);
+    Keyframe keyframe = testing::DownwardKeyframe(camera, k + 1, Eigen::Vector3d(0, 0, 10));
     for (int v = 0; v < camera.height; ++v) {
       for (int u = 0; u < camera.width; ++u) {
         const bool rows = std::abs(v - camera.cy) < 15;

@@ -43,11 +43,7 @@ TEST(PriorFootprint, GroundPastTheMapsEdgeIsNotNewButANewObjectInsideIs) {
   const PinholeCamera camera = testing::SmallCamera();
   KeyframeFolder keyframes;
   keyframes.camera = camera;
-  Keyframe keyframe;
-  keyframe.t_ns = 1;
-  keyframe.T_map_cam.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();  // optical axis down
-  keyframe.T_map_cam.translation() = Eigen::Vector3d(0, 0, 10);
-  keyframe.depth = testing::Wall(camera, 10.f);
+  Keyframe keyframe = testing::DownwardKeyframe(camera, 1, Eigen::Vector3d(0, 0, 10));
   for (int v = 0; v < camera.height; ++v) {
     for (int u = 0; u < camera.width; ++u) {
       const double x_at_top = (u - camera.cx) / camera.fx * 5.0;  // x where the ray meets z = 5

@@ -51,12 +51,9 @@ KeyframeFolder DriveOver() {
   keyframes.camera = testing::SmallCamera();
   const PinholeCamera& camera = keyframes.camera;
   for (int k = 0; k < 5; ++k) {
-    Keyframe keyframe;
-    keyframe.t_ns = k + 1;
-    keyframe.T_map_cam.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();  // optical axis down
     const float cx = -2.f + 0.5f * k;
-    keyframe.T_map_cam.translation() = Eigen::Vector3d(cx, 0, kCameraHeight);
-    keyframe.depth = testing::Wall(camera, kCameraHeight);
+    Keyframe keyframe =
+        testing::DownwardKeyframe(camera, k + 1, Eigen::Vector3d(cx, 0, kCameraHeight));
     for (int v = 0; v < camera.height; ++v) {
       for (int u = 0; u < camera.width; ++u) {
         const auto at_height = [&](float z, float* x, float* y) {
