@@ -79,7 +79,7 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->removed_min_free_keyframes = 3;
     params->new_footprint_radius_m = 1.6;
     params->new_not_seen_free = true;
-    params->removed_mask_radius_m = 0.8;
+    params->removed_mask_radius_m = 1.6;
   } else {
     throw Error(ErrorCode::kInvalidArgument,
                 "free-space rule '" + rule + "': expected paper or confident");
@@ -102,9 +102,11 @@ PointCloud ObservedPriorCloud(const PointCloud& prior, const PointCloud& global,
   return Select(prior, keep);
 }
 
-PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prior, double radius_m,
-                                int threads) {
-  if (!(radius_m > 0) || points.empty()) return points;
+namespace {
+
+// in[i] = points[i] lies within radius_m (horizontally) of some point of `prior`.
+std::vector<char> InPriorFootprint(const PointCloud& points, const PointCloud& prior,
+                                   double radius_m, int threads) {
   // The prior flattened onto z = 0 and thinned to a quarter of the radius (a building's wall
   // becomes one column), so the test is one 2-D radius query per point.
   PointCloud flat;
@@ -112,33 +114,48 @@ PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prio
   for (const Point& p : prior) flat.emplace_back(p.x(), p.y(), 0.f);
   flat = VoxelDownsample(flat, static_cast<float>(radius_m / 4));
   const NeighborIndex footprint(flat);
-  std::vector<char> keep(points.size(), 0);
+  std::vector<char> in(points.size(), 0);
   const auto radius = static_cast<float>(radius_m);
   ParallelFor(
       points.size(), threads,
       [&](size_t i) {
-        keep[i] = footprint.AnyWithin(Point(points[i].x(), points[i].y(), 0.f), radius);
+        in[i] = footprint.AnyWithin(Point(points[i].x(), points[i].y(), 0.f), radius);
       },
       kPointGrain);
-  return Select(points, keep);
+  return in;
 }
 
-std::vector<size_t> ReobservingPrior(const PointCloud& global, const PointCloud& prior,
-                                     double radius_m, int threads) {
-  if (!(radius_m > 0 && std::isfinite(radius_m))) {
-    throw Error(ErrorCode::kInvalidArgument, "re-observed prior: radius must be > 0");
+}  // namespace
+
+PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prior, double radius_m,
+                                int threads) {
+  if (!(radius_m > 0) || points.empty()) return points;
+  return Select(points, InPriorFootprint(points, prior, radius_m, threads));
+}
+
+std::vector<size_t> MaskingPoints(const PointCloud& global, const PointCloud& prior,
+                                  double reobserve_radius_m, double footprint_radius_m,
+                                  int threads) {
+  if (!(reobserve_radius_m > 0 && std::isfinite(reobserve_radius_m)) ||
+      !(footprint_radius_m >= 0 && std::isfinite(footprint_radius_m))) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "masking points: the re-observation radius must be > 0, the footprint's >= 0");
   }
-  std::vector<char> keep(global.size(), 0);
+  std::vector<char> masks(global.size(), 1);
   if (!prior.empty()) {
+    const std::vector<char> in_footprint =
+        footprint_radius_m > 0 ? InPriorFootprint(global, prior, footprint_radius_m, threads)
+                               : std::vector<char>(global.size(), 1);
     const NeighborIndex prior_index(prior);
-    const auto radius = static_cast<float>(radius_m);
+    const auto radius = static_cast<float>(reobserve_radius_m);
     ParallelFor(
         global.size(), threads,
-        [&](size_t i) { keep[i] = prior_index.AnyWithin(global[i], radius); }, kPointGrain);
+        [&](size_t i) { masks[i] = !in_footprint[i] || prior_index.AnyWithin(global[i], radius); },
+        kPointGrain);
   }
   std::vector<size_t> out;
   for (size_t i = 0; i < global.size(); ++i) {
-    if (keep[i]) out.push_back(i);
+    if (masks[i]) out.push_back(i);
   }
   return out;
 }
@@ -257,8 +274,9 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
   }
   if (params.removed_min_free_keyframes > 0) {
     if (params.removed_mask_radius_m > 0) {  // only points that re-observe the prior mask
-      const std::vector<size_t> masking = ReobservingPrior(
-          result.global, result.prior, params.removed_mask_radius_m, params.threads);
+      const std::vector<size_t> masking =
+          MaskingPoints(result.global, result.prior, params.removed_mask_radius_m,
+                        params.new_footprint_radius_m, params.threads);
       PointCloud masking_points;
       masking_points.reserve(masking.size());
       for (size_t i : masking) masking_points.push_back(result.global[i]);

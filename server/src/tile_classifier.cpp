@@ -144,16 +144,18 @@ std::set<int64_t> SessionsNear(const std::vector<const AggregateVoxel*>& voxels,
 
 // The voxels that may mask a removal (Alg. 2: those within th_ch of it) and their centroids:
 // under a mask radius (ChangeDetectionParams::removed_mask_radius_m) only those that re-observe
-// a prior surface, else all of them.
+// a prior surface or lie outside the prior's footprint (MaskingPoints), else all of them.
 struct MaskingVoxels {
   std::vector<const AggregateVoxel*> voxels;
   PointCloud centroids;
 };
 
-MaskingVoxels MaskingVoxelsOf(const Neighbourhood& n, double mask_radius_m, int threads) {
+MaskingVoxels MaskingVoxelsOf(const Neighbourhood& n, const ChangeDetectionParams& detection,
+                              double mask_radius_m) {
   if (!(mask_radius_m > 0)) return {n.voxels, n.global};
   MaskingVoxels out;
-  for (size_t i : ReobservingPrior(n.global, n.prior, mask_radius_m, threads)) {
+  for (size_t i : MaskingPoints(n.global, n.prior, mask_radius_m, detection.new_footprint_radius_m,
+                                detection.threads)) {
     out.voxels.push_back(n.voxels[i]);
     out.centroids.push_back(n.global[i]);
   }
@@ -236,7 +238,7 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
         ObservedPriorCloud(n.prior, n.global, observed, th_ch, detection.threads);
     Changes changes = ClassifyChanges(n.global, observed_prior, th_ch, detection.threads);
     const MaskingVoxels masking =
-        MaskingVoxelsOf(n, min_free > 0 ? detection.removed_mask_radius_m : 0.0, detection.threads);
+        MaskingVoxelsOf(n, detection, min_free > 0 ? detection.removed_mask_radius_m : 0.0);
     const NeighborIndex masking_index(masking.centroids);
     if (masking.voxels.size() < n.voxels.size()) {  // fewer masks: Alg. 2's removed test again
       changes.removed_points.clear();

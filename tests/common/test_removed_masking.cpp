@@ -1,6 +1,6 @@
 // Which global points mask a removal (issue 21, ChangeDetectionParams::removed_mask_radius_m,
-// ReobservingPrior): Alg. 2 keeps every prior point within th_ch of any global point; under the
-// confident rule only global points that re-observe the prior (within 0.8 m of a prior point)
+// MaskingPoints): Alg. 2 keeps every prior point within th_ch of any global point; under the
+// confident rule only global points that re-observe the prior (within 1.6 m of a prior point)
 // do. A ghost in the depth (noise, or a van parked for that drive) inside a building that is
 // gone no longer hides the building's prior points 3.2 m around it; the ground seen again still
 // masks the prior points next to it.
@@ -14,7 +14,7 @@ namespace mapdelta {
 namespace {
 
 constexpr float kCameraHeight = 12.f;
-constexpr float kGoneTop = 6.f;      // a 6 m high box over x in [-4, 0], |y| <= 2: gone now
+constexpr float kGoneTop = 6.f;      // a 6 m high box over x in [-5, 1], |y| <= 3: gone now
 constexpr float kStandingTop = 5.f;  // a 5 m high box over x in [2, 4], |y| <= 1: still there
 constexpr float kGhostZ = 3.5f;      // a 1 x 1 m slab at this height inside the gone box
 
@@ -29,16 +29,16 @@ PointCloud Prior() {
   for (float x = -10.f; x <= 10.f + 1e-4f; x += 0.2f) {
     for (float y = -10.f; y <= 10.f + 1e-4f; y += 0.2f) {
       prior.emplace_back(x, y, 0.f);
-      if (In(x, y, -4.f, 0.f, 2.f)) prior.emplace_back(x, y, kGoneTop);
+      if (In(x, y, -5.f, 1.f, 3.f)) prior.emplace_back(x, y, kGoneTop);
       if (In(x, y, 2.f, 4.f, 1.f)) prior.emplace_back(x, y, kStandingTop);
     }
   }
   for (float z = 0.2f; z < kGoneTop; z += 0.2f) {
-    for (float t = -4.f; t <= 0.f + 1e-4f; t += 0.2f) {
-      prior.emplace_back(t, -2.f, z);
-      prior.emplace_back(t, 2.f, z);
-      prior.emplace_back(-4.f, t + 2.f, z);
-      prior.emplace_back(0.f, t + 2.f, z);
+    for (float t = -3.f; t <= 3.f + 1e-4f; t += 0.2f) {
+      prior.emplace_back(t - 2.f, -3.f, z);
+      prior.emplace_back(t - 2.f, 3.f, z);
+      prior.emplace_back(-5.f, t, z);
+      prior.emplace_back(1.f, t, z);
     }
   }
   return prior;
@@ -90,7 +90,7 @@ struct RemovedCounts {
 RemovedCounts Count(const PointCloud& removed) {
   RemovedCounts counts;
   for (const Point& p : removed) {
-    if (!In(p.x(), p.y(), -4.2f, 0.2f, 2.2f) || p.z() < 0.1f) {
+    if (!In(p.x(), p.y(), -5.2f, 1.2f, 3.2f) || p.z() < 0.1f) {
       ++counts.other;
       continue;
     }
@@ -111,9 +111,9 @@ TEST(RemovedMasking, AGhostInsideAGoneBuildingMasksItOnlyUnderThePapersTest) {
   EXPECT_EQ(all_mask.top_over_ghost, 0);
   EXPECT_EQ(all_mask.other, 0);
 
-  // Only points that re-observe the prior mask: the ghost is 1.5 m or more from every prior
+  // Only points that re-observe the prior mask: the ghost is 2.5 m or more from every prior
   // point, so the top over it is removed; the ground seen again still masks the low sides.
-  const ChangeDetectionResult result = DetectChanges(keyframes, prior, Confident(0.8));
+  const ChangeDetectionResult result = DetectChanges(keyframes, prior, Confident(1.6));
   const RemovedCounts reobserved = Count(result.changes.removed_points);
   EXPECT_GT(reobserved.top_over_ghost, 8);
   EXPECT_GT(reobserved.gone_box, all_mask.gone_box + 20);
@@ -125,22 +125,24 @@ TEST(RemovedMasking, OnlyWithTheFreeEvidence) {
   const KeyframeFolder keyframes = DriveOver();
   const PointCloud prior = Prior();
   // Without the per-point free evidence the distance is the only evidence: every point masks.
-  ChangeDetectionParams paper = Confident(0.8);
+  ChangeDetectionParams paper = Confident(1.6);
   paper.removed_min_free_keyframes = 0;
   EXPECT_EQ(Count(DetectChanges(keyframes, prior, paper).changes.removed_points).top_over_ghost, 0);
   EXPECT_THROW(DetectChanges(keyframes, prior, Confident(-1.0)), Error);
 }
 
-TEST(RemovedMasking, ReobservingPriorKeepsThePointsNearThePrior) {
+TEST(RemovedMasking, MaskingPointsAreThoseNearThePriorOrOutsideItsFootprint) {
   const PointCloud prior = {{0, 0, 0}, {10, 0, 0}};
-  const PointCloud global = {{0.5f, 0, 0}, {5, 0, 0}, {10, 0.7f, 0}, {10, 0.9f, 0}};
-  EXPECT_EQ(ReobservingPrior(global, prior, 0.8, 1), (std::vector<size_t>{0, 2}));
-  EXPECT_TRUE(ReobservingPrior(global, {}, 0.8, 1).empty());
-  EXPECT_THROW(ReobservingPrior(global, prior, 0.0, 1), Error);
+  const PointCloud global = {{0.5f, 0, 0}, {0, 1.2f, 0}, {10, 0.7f, 0}, {10, 0, 2}, {30, 0, 0}};
+  // {0, 1.2, 0} and {10, 0, 2} are inside the footprint (1.6 m) but near no prior point.
+  EXPECT_EQ(MaskingPoints(global, prior, 0.8, 1.6, 1), (std::vector<size_t>{0, 2, 4}));
+  EXPECT_EQ(MaskingPoints(global, prior, 0.8, 0.0, 1), (std::vector<size_t>{0, 2}));
+  EXPECT_EQ(MaskingPoints(global, {}, 0.8, 1.6, 1).size(), global.size());
+  EXPECT_THROW(MaskingPoints(global, prior, 0.0, 1.6, 1), Error);
   ChangeDetectionParams confident, paper;
   ApplyFreeSpaceRule("confident", &confident);
   ApplyFreeSpaceRule("paper", &paper);
-  EXPECT_EQ(confident.removed_mask_radius_m, 0.8);
+  EXPECT_EQ(confident.removed_mask_radius_m, 1.6);
   EXPECT_EQ(paper.removed_mask_radius_m, 0.0);
 }
 

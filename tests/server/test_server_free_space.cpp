@@ -216,7 +216,7 @@ TEST(CommitFreeSpace, AVoxelOtherSessionsSawWithoutFillingDoesNotMaskARemoval) {
 TEST(CommitFreeSpace, AGhostThatReobservesNoPriorSurfaceDoesNotMaskARemoval) {
   log::SetLevel(log::Level::kWarn);
   const fs::path dir = FreshTempDir("mds_free_space_mask");
-  const Box ghost{{16, 11.5, kGroundZ}, {18, 13.5, 1.8}};
+  const Box ghost{{16, 12, kGroundZ}, {18, 13, 1.8}};  // 2 m from A's walls
   FreeSpaceServer server("confident", dir, true, Prior(), /*th_ch_m=*/3.2);
   server.Commit("car", [&](int64_t, const SE3& T) {
     BoxScene s = Real();

@@ -32,7 +32,8 @@ struct ChangeDetectionParams {
   bool new_not_seen_free = false;
   // With removed_min_free_keyframes > 0: a global point masks the prior points within th_ch of
   // it (Alg. 2) only when it lies within this distance of some prior point, i.e. re-observes a
-  // prior surface (ReobservingPrior); 0 = every global point masks (the paper). th_ch allows
+  // prior surface, or outside the prior's footprint (MaskingPoints); 0 = every global point
+  // masks (the paper). th_ch allows
   // for the depth error of a surface seen again; a point of a new object or of depth noise says
   // nothing about the prior around it, yet masked a removed building 3.2 m around it.
   double removed_mask_radius_m = 0.0;
@@ -50,9 +51,9 @@ struct ChangeDetectionParams {
 //                 (sigma = 1.25e-3 d^2: 0.5 px disparity at the paper rig's fx * B = 400 m px).
 //                 New points only within the prior's footprint (1.6 m: two cloud voxels) and
 //                 only where the session's own rays did not pass through more than end.
-//                 Removals are masked only by global points within 0.8 m (a cloud voxel) of
-//                 the prior (removed_mask_radius_m; measured on four paper cells: R_rm
-//                 +0.02-0.10 at the same or better P_rm, docs/results.md).
+//                 Removals are masked only by global points within 1.6 m (two cloud voxels)
+//                 of the prior (removed_mask_radius_m; measured on five paper cells: R_rm
+//                 +0.02-0.12 at the same or better P_rm, docs/results.md).
 //                 Rays without depth are not stopped at prior surfaces: measured on paper
 //                 S1_01 (docs/results.md), that part lowered R_rm by 0.036 and added no
 //                 precision once the voxel test was on (free_rays_stop_at_prior stays an option).
@@ -82,10 +83,14 @@ PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prio
 // voxels rays also cross), so it judges new points only and removals keep the whole cloud.
 PointCloud NotSeenFree(const PointCloud& points, const ObservedArea& observed, int threads);
 
-// The indices (ascending) of the points of `global` within radius_m of some point of `prior`:
-// those that re-observe a prior surface rather than a new object or depth noise.
-std::vector<size_t> ReobservingPrior(const PointCloud& global, const PointCloud& prior,
-                                     double radius_m, int threads);
+// The indices (ascending) of the points of `global` that may mask a removal under the mask
+// radius (ChangeDetectionParams::removed_mask_radius_m): those within reobserve_radius_m of some
+// point of `prior` (they see a prior surface again) and those outside the prior's footprint
+// (unmapped surfaces, as WithinPriorFootprint; footprint_radius_m 0 = no such test). A point
+// inside the footprint but near no prior point is a new object or depth noise.
+std::vector<size_t> MaskingPoints(const PointCloud& global, const PointCloud& prior,
+                                  double reobserve_radius_m, double footprint_radius_m,
+                                  int threads);
 
 // Alg. 2. `threads` as ChangeDetectionParams::threads.
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
