@@ -161,16 +161,16 @@ std::vector<size_t> MaskingPoints(const PointCloud& global, const PointCloud& pr
 }
 
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
-                        int threads) {
+                        int threads, const PointCloud* masking) {
   CheckThreshold(th_ch_m);
   Changes changes;
   {
     const NeighborIndex prior_index(observed_prior);
     changes.new_points = Select(global, FarFrom(global, prior_index, th_ch_m, threads));
   }
-  const NeighborIndex global_index(global);
+  const NeighborIndex masking_index(masking ? *masking : global);
   changes.removed_points =
-      Select(observed_prior, FarFrom(observed_prior, global_index, th_ch_m, threads));
+      Select(observed_prior, FarFrom(observed_prior, masking_index, th_ch_m, threads));
   return changes;
 }
 
@@ -264,8 +264,17 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
   report("classification", 0.0);
   result.observed_prior = ObservedPriorCloud(result.prior, result.global, result.observed,
                                              params.th_ch_m, params.threads);
-  result.changes =
-      ClassifyChanges(result.global, result.observed_prior, params.th_ch_m, params.threads);
+  // Under the mask radius only some global points may mask a removal (MaskingPoints).
+  std::optional<PointCloud> masking;
+  if (params.removed_min_free_keyframes > 0 && params.removed_mask_radius_m > 0) {
+    masking.emplace();
+    for (size_t i : MaskingPoints(result.global, result.prior, params.removed_mask_radius_m,
+                                  params.new_footprint_radius_m, params.threads)) {
+      masking->push_back(result.global[i]);
+    }
+  }
+  result.changes = ClassifyChanges(result.global, result.observed_prior, params.th_ch_m,
+                                   params.threads, masking ? &*masking : nullptr);
   result.changes.new_points = WithinPriorFootprint(result.changes.new_points, result.prior,
                                                    params.new_footprint_radius_m, params.threads);
   if (params.new_not_seen_free) {
@@ -273,18 +282,6 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
         NotSeenFree(result.changes.new_points, result.observed, params.threads);
   }
   if (params.removed_min_free_keyframes > 0) {
-    if (params.removed_mask_radius_m > 0) {  // only points that re-observe the prior mask
-      const std::vector<size_t> masking =
-          MaskingPoints(result.global, result.prior, params.removed_mask_radius_m,
-                        params.new_footprint_radius_m, params.threads);
-      PointCloud masking_points;
-      masking_points.reserve(masking.size());
-      for (size_t i : masking) masking_points.push_back(result.global[i]);
-      const NeighborIndex masking_index(masking_points);
-      result.changes.removed_points =
-          Select(result.observed_prior,
-                 FarFrom(result.observed_prior, masking_index, params.th_ch_m, params.threads));
-    }
     result.changes.removed_points = SeenFree(result.changes.removed_points, result.observed,
                                              params.removed_min_free_keyframes, params.threads);
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "mapdelta/common/change_detection.hpp"
 #include "mapdelta/common/neighbor_index.hpp"
@@ -130,7 +131,6 @@ float Confidence(size_t supported, size_t observed) {
   return static_cast<float>(supported + 1) / static_cast<float>(observed + 2);
 }
 
-// Sessions that have aggregated points within radius of p.
 // The sessions that filled a voxel within radius of p; `index` is built on the centroids of
 // `voxels`, in the same order.
 std::set<int64_t> SessionsNear(const std::vector<const AggregateVoxel*>& voxels,
@@ -142,20 +142,18 @@ std::set<int64_t> SessionsNear(const std::vector<const AggregateVoxel*>& voxels,
   return out;
 }
 
-// The voxels that may mask a removal (Alg. 2: those within th_ch of it) and their centroids:
-// under a mask radius (ChangeDetectionParams::removed_mask_radius_m) only those that re-observe
-// a prior surface or lie outside the prior's footprint (MaskingPoints), else all of them.
+// Under a mask radius (ChangeDetectionParams::removed_mask_radius_m), the voxels that may mask a
+// removal (Alg. 2: those within th_ch of it) and their centroids: those that re-observe a prior
+// surface or lie outside the prior's footprint (MaskingPoints).
 struct MaskingVoxels {
   std::vector<const AggregateVoxel*> voxels;
   PointCloud centroids;
 };
 
-MaskingVoxels MaskingVoxelsOf(const Neighbourhood& n, const ChangeDetectionParams& detection,
-                              double mask_radius_m) {
-  if (!(mask_radius_m > 0)) return {n.voxels, n.global};
+MaskingVoxels MaskingVoxelsOf(const Neighbourhood& n, const ChangeDetectionParams& detection) {
   MaskingVoxels out;
-  for (size_t i : MaskingPoints(n.global, n.prior, mask_radius_m, detection.new_footprint_radius_m,
-                                detection.threads)) {
+  for (size_t i : MaskingPoints(n.global, n.prior, detection.removed_mask_radius_m,
+                                detection.new_footprint_radius_m, detection.threads)) {
     out.voxels.push_back(n.voxels[i]);
     out.centroids.push_back(n.global[i]);
   }
@@ -177,8 +175,8 @@ std::vector<int64_t> ObservingSessions(const std::set<int64_t>& tile_sessions, O
 // hits; it contradicts it when it has aggregated points within th_ch (of those that may mask it,
 // MaskingVoxels) or its octree holds the voxel as not free at all (a surface seen there); a
 // session that only grazed the voxel (free, with less evidence) observed too little to say and
-// is left out of both. Summing stray rays of
-// many sessions in one merged octree (the rule before) let every upload add false removals.
+// is left out of both. Summing stray rays of many sessions in one merged octree (the rule
+// before) let every upload add false removals.
 void RemovedEvidence(const std::vector<std::pair<int64_t, const ObservedArea*>>& areas,
                      const Point& p, int min_free, const std::set<int64_t>& near, ChangePoint* c) {
   for (const auto& [s, area] : areas) {
@@ -236,23 +234,21 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
     // Step 2: paper Alg. 1 (observed prior) and Alg. 2 (new / removed) on the neighbourhood.
     const PointCloud observed_prior =
         ObservedPriorCloud(n.prior, n.global, observed, th_ch, detection.threads);
-    Changes changes = ClassifyChanges(n.global, observed_prior, th_ch, detection.threads);
-    const MaskingVoxels masking =
-        MaskingVoxelsOf(n, detection, min_free > 0 ? detection.removed_mask_radius_m : 0.0);
-    const NeighborIndex masking_index(masking.centroids);
-    if (masking.voxels.size() < n.voxels.size()) {  // fewer masks: Alg. 2's removed test again
-      changes.removed_points.clear();
-      for (const Point& p : observed_prior) {
-        if (!masking_index.AnyWithin(p, static_cast<float>(th_ch), /*inclusive=*/false))
-          changes.removed_points.push_back(p);
-      }
-    }
+    const bool masked = min_free > 0 && detection.removed_mask_radius_m > 0;
+    const MaskingVoxels masking = masked ? MaskingVoxelsOf(n, detection) : MaskingVoxels{};
+    Changes changes = ClassifyChanges(n.global, observed_prior, th_ch, detection.threads,
+                                      masked ? &masking.centroids : nullptr);
     changes.new_points = WithinPriorFootprint(changes.new_points, n.prior,
                                               detection.new_footprint_radius_m, detection.threads);
 
     // Step 3: evidence and confidence for the points inside the tile.
     const AxisAlignedBox bounds = grid.Bounds(tile);
     const NeighborIndex global_index(n.global);
+    // A removed point's sessions near it are those of the voxels that may mask it.
+    std::optional<NeighborIndex> masking_index;
+    if (masked) masking_index.emplace(masking.centroids);
+    const NeighborIndex& near_index = masked ? *masking_index : global_index;
+    const std::vector<const AggregateVoxel*>& near_voxels = masked ? masking.voxels : n.voxels;
     const float radius = static_cast<float>(th_ch);
     for (const Point& p : changes.new_points) {
       if (!bounds.Contains(p)) continue;
@@ -273,7 +269,7 @@ TileClassification ClassifyTile(Storage& storage, const TileGrid& grid, const Ti
     const auto tile_areas = AreasOf(tile_sessions, cache);
     for (const Point& p : changes.removed_points) {
       if (!bounds.Contains(p)) continue;
-      const std::set<int64_t> near = SessionsNear(masking.voxels, masking_index, p, radius);
+      const std::set<int64_t> near = SessionsNear(near_voxels, near_index, p, radius);
       ChangePoint c;
       c.position = p;
       c.kind = ChangeKind::kRemoved;

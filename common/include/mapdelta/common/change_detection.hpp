@@ -33,9 +33,9 @@ struct ChangeDetectionParams {
   // With removed_min_free_keyframes > 0: a global point masks the prior points within th_ch of
   // it (Alg. 2) only when it lies within this distance of some prior point, i.e. re-observes a
   // prior surface, or outside the prior's footprint (MaskingPoints); 0 = every global point
-  // masks (the paper). th_ch allows
-  // for the depth error of a surface seen again; a point of a new object or of depth noise says
-  // nothing about the prior around it, yet masked a removed building 3.2 m around it.
+  // masks (the paper). th_ch allows for the depth error of a surface seen again; a point of a
+  // new object or of depth noise says nothing about the prior around it, yet masked a removed
+  // building 3.2 m around it.
   double removed_mask_radius_m = 0.0;
   // Threads for every step of DetectChanges, the observed area's rays included (it overrides
   // observed.threads there); 0 = every hardware thread (parallel.hpp).
@@ -52,7 +52,7 @@ struct ChangeDetectionParams {
 //                 New points only within the prior's footprint (1.6 m: two cloud voxels) and
 //                 only where the session's own rays did not pass through more than end.
 //                 Removals are masked only by global points within 1.6 m (two cloud voxels)
-//                 of the prior (removed_mask_radius_m; measured on five paper cells: R_rm
+//                 of the prior (removed_mask_radius_m; measured on six paper cells: R_rm
 //                 +0.02-0.12 at the same or better P_rm, docs/results.md).
 //                 Rays without depth are not stopped at prior surfaces: measured on paper
 //                 S1_01 (docs/results.md), that part lowered R_rm by 0.036 and added no
@@ -92,9 +92,10 @@ std::vector<size_t> MaskingPoints(const PointCloud& global, const PointCloud& pr
                                   double reobserve_radius_m, double footprint_radius_m,
                                   int threads);
 
-// Alg. 2. `threads` as ChangeDetectionParams::threads.
+// Alg. 2. `threads` as ChangeDetectionParams::threads. `masking`: the points that keep a prior
+// point from being removed (within th_ch of it); nullptr = all of `global`, as in the paper.
 Changes ClassifyChanges(const PointCloud& global, const PointCloud& observed_prior, double th_ch_m,
-                        int threads);
+                        int threads, const PointCloud* masking = nullptr);
 
 // Every keyframe's depths below max_depth_m back-projected into the map frame, voxel-downsampled
 // to voxel_m (per keyframe and once more at the end, so memory stays bounded).
