@@ -48,6 +48,8 @@ ConfigSchema Schema(ClientConfig& c) {
       .Field("registration.prior_voxel_m", &r.prior_voxel_m, 0, 100)
       .Field("registration.covariance_scale", &r.covariance_scale, 1e-12, 1e12)
       .Field("registration.covariance_full_points", &r.covariance_full_points, 1.0, 1e9)
+      .Field("registration.ambiguity_probe_m", &r.ambiguity_probe_m, 0.0, 100.0)
+      .Field("registration.ambiguity_probe_ratio", &r.ambiguity_probe_ratio, 0.0, 1.0)
       .Field("registration.relocalize_after_rejections", &r.relocalize_after_rejections, 1, 1000000)
       .Field("registration.relocalize_max_correction_m", &r.relocalize_max_correction_m, 0, 1e6)
       .Field("registration.relocalize_max_correction_deg", &r.relocalize_max_correction_deg, 0, 180)

@@ -56,14 +56,53 @@ struct PriorRegistrar::Impl {
   // "the surfaces coincide" than the gate's inlier fraction at the wide correspondence radius.
   double CloseFraction(const PointCloud& local, const SE3& T, double radius_m) {
     const GicpCloud* tgt = Target(T.translation());
-    if (tgt == nullptr || local.empty()) return 0.0;
+    return tgt == nullptr ? 0.0 : CloseFraction(*tgt, local, T, radius_m);
+  }
+  static double CloseFraction(const GicpCloud& tgt, const PointCloud& local, const SE3& T,
+                              double radius_m) {
+    if (local.empty()) return 0.0;
     const Eigen::Isometry3f Tf = T.cast<float>();
     size_t close = 0, index = 0;
     float distance = 0;
     for (const auto& p : local) {
-      close += tgt->NearestWithin(Tf * p, static_cast<float>(radius_m), &index, &distance);
+      close += tgt.NearestWithin(Tf * p, static_cast<float>(radius_m), &index, &distance);
     }
     return static_cast<double>(close) / static_cast<double>(local.size());
+  }
+
+  // Multi-start check of the accepted pose T: GICP again from T shifted by +-d along the
+  // body's x and y axes. A start that converges to another pose (more than d / 2 from T along
+  // that axis) whose share of local points within max_fitness_m / 2 of the prior is at least
+  // ambiguity_probe_ratio of T's is a second minimum of the cost: the variance along the axis
+  // is raised to the square of the two minima's separation. GICP's covariance describes the
+  // curvature of one minimum only; sparse, noisy clouds on facades with repeating structure
+  // have several (paper S1_dark, big noise: registrations 1-1.5 m off along the track at 5-10
+  // sigma, converging backwards or forwards depending on the start).
+  void ProbeSecondMinima(const GicpCloud& tgt, const GicpCloud& source, const PointCloud& local,
+                         const SE3& T, Matrix6d* covariance) {
+    const double d = config.ambiguity_probe_m;
+    if (d <= 0) return;
+    const double radius = 0.5 * config.max_fitness_m;
+    const double at_pose = CloseFraction(tgt, local, T, radius);
+    if (at_pose <= 0) return;
+    const GicpParams params = Params(config.max_correspondence_m);
+    for (int axis = 0; axis < 2; ++axis) {
+      double separation = 0;
+      for (const double sign : {-1.0, 1.0}) {
+        SE3 shift = SE3::Identity();
+        shift.translation()(axis) = sign * d;
+        const RegistrationResult other = AlignGicp(tgt, source, T * shift, params);
+        if (!other.converged) continue;
+        const double along = (T.inverse() * other.T_target_source).translation()(axis);
+        if (std::abs(along) <= 0.5 * d) continue;  // back to T: one minimum
+        if (CloseFraction(tgt, local, other.T_target_source, radius) >=
+            config.ambiguity_probe_ratio * at_pose) {
+          separation = std::max(separation, std::abs(along));
+        }
+      }
+      const int i = 3 + axis;
+      (*covariance)(i, i) = std::max((*covariance)(i, i), separation * separation);
+    }
   }
 
   RegistrationOutcome Run(const PointCloud& local, const SE3& guess, double coarse_corr_m,
@@ -84,8 +123,9 @@ struct PriorRegistrar::Impl {
       if (coarse.converged || coarse.iterations > 0) init = coarse.T_target_source;
     }
     // 2. Fine pass with the production radius; its Hessian gives the covariance.
-    const RegistrationResult result =
-        AlignGicp(*tgt, local, init, Params(config.max_correspondence_m));
+    const GicpParams fine = Params(config.max_correspondence_m);
+    const GicpCloud source(local, fine);
+    const RegistrationResult result = AlignGicp(*tgt, source, init, fine);
     const GateDecision decision = CheckRegistration(result, guess, gate);
     out.accepted = decision.accepted;
     out.reason = decision.reason;
@@ -93,6 +133,7 @@ struct PriorRegistrar::Impl {
     // Correlated cloud errors do not average out over more points (see covariance_full_points).
     out.covariance = result.covariance * std::max(1.0, static_cast<double>(result.num_inliers) /
                                                            config.covariance_full_points);
+    if (out.accepted) ProbeSecondMinima(*tgt, source, local, out.T_map_body, &out.covariance);
     out.fitness_m = result.fitness_m;
     out.inlier_fraction = result.num_source_points == 0
                               ? 0.0

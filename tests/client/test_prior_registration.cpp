@@ -45,6 +45,26 @@ PointCloud Scene() {
   return scene;
 }
 
+// A corridor along x: flat ground, two long walls at y = +-6 m and poles every 2.5 m on both
+// sides. A vehicle's local cloud fits it equally well every 2.5 m along x.
+PointCloud Corridor() {
+  PointCloud corridor;
+  for (double x = -80; x <= 80; x += 0.4) {
+    for (double y = -6; y <= 6; y += 0.4) corridor.emplace_back(x, y, 0.0);
+    for (double z = 0; z <= 8; z += 0.4) {
+      corridor.emplace_back(x, -6.0, z);
+      corridor.emplace_back(x, 6.0, z);
+    }
+  }
+  for (double x = -80; x <= 80; x += 2.5) {
+    for (double z = 0; z <= 5; z += 0.3) {
+      corridor.emplace_back(x, -4.0, z);
+      corridor.emplace_back(x, 4.0, z);
+    }
+  }
+  return corridor;
+}
+
 SE3 Pose(double x, double y, double yaw_deg) {
   SE3 T = SE3::Identity();
   T.linear() =
@@ -246,6 +266,48 @@ TEST_F(PriorRegistrationTest, CovarianceStopsShrinkingBeyondTheFullPointCount) {
   EXPECT_LT((a.T_map_body.translation() - b.T_map_body.translation()).norm(), 1e-9);
   EXPECT_TRUE(b.covariance.isApprox(4.0 * a.covariance, 1e-3))
       << "ratio " << b.covariance(3, 3) / a.covariance(3, 3);
+}
+
+TEST_F(PriorRegistrationTest, ASecondMinimumAlongTheTrackRaisesTheVarianceAlongIt) {
+  const PointCloud corridor = Corridor();
+  const std::string path = mapdelta::testing::TempFilePath("mapdelta_corridor.pcd").string();
+  WriteCloud(path, corridor);
+  FilePriorSource prior(path, 0.4);
+  SE3 truth = SE3::Identity();
+  truth.translation() = Eigen::Vector3d(1.0, 0.0, 2.0);
+  const PointCloud local = LocalCloud(corridor, truth, 5);
+  const SE3 guess = Offset(truth, 0.3, 0.1, 0.5);
+  RegistrationConfig without, probing;
+  without.ambiguity_probe_m = 0.0;
+  probing.ambiguity_probe_m = 1.5;  // from +-1.5 m the next pole spacing (2.5 m) is nearer
+  PriorRegistrar plain(without, &prior), probed(probing, &prior);
+  const RegistrationOutcome a = plain.Register(local, guess);
+  const RegistrationOutcome b = probed.Register(local, guess);
+  ASSERT_TRUE(a.accepted) << a.reason;
+  ASSERT_TRUE(b.accepted) << b.reason;
+  EXPECT_LT((a.T_map_body.translation() - truth.translation()).norm(), 0.2);
+  EXPECT_LT((a.T_map_body.translation() - b.T_map_body.translation()).norm(), 1e-9);
+  // GICP's own covariance sees one sharp minimum; the probe finds the next one 2.5 m along x.
+  EXPECT_LT(a.covariance(3, 3), 0.5);
+  EXPECT_GT(b.covariance(3, 3), 2.0 * 2.0);
+  // Across the corridor the walls leave one minimum: unchanged.
+  EXPECT_DOUBLE_EQ(b.covariance(4, 4), a.covariance(4, 4));
+}
+
+TEST_F(PriorRegistrationTest, AnUnambiguousRegistrationKeepsItsCovarianceUnderTheProbe) {
+  FilePriorSource prior(path_, 0.4);
+  const SE3 truth = Pose(10.0, 0.0, 90.0);
+  const PointCloud local = LocalCloud(scene_, truth, 3);
+  const SE3 guess = Offset(truth, 0.5, -0.3, 1.0);
+  RegistrationConfig without, probing;
+  without.ambiguity_probe_m = 0.0;
+  probing.ambiguity_probe_m = 1.0;
+  PriorRegistrar plain(without, &prior), probed(probing, &prior);
+  const RegistrationOutcome a = plain.Register(local, guess);
+  const RegistrationOutcome b = probed.Register(local, guess);
+  ASSERT_TRUE(a.accepted) << a.reason;
+  ASSERT_TRUE(b.accepted) << b.reason;
+  EXPECT_TRUE(b.covariance.isApprox(a.covariance, 1e-12));
 }
 
 TEST_F(PriorRegistrationTest, RegistrationOfNearbyGuessAndNoPriorReason) {

@@ -170,7 +170,8 @@ bool Initializer::Align(std::vector<InitFrame>* frames_ptr) const {
   }
   Eigen::VectorXd x = M.colPivHouseholderQr().solve(y);
   const Eigen::Vector3d g = x.tail<3>();
-  if (!x.allFinite() || std::abs(g.norm() - config_.gravity) > 0.1 * config_.gravity) {
+  if (!x.allFinite() ||
+      std::abs(g.norm() - config_.gravity) > config_.init_max_gravity_error * config_.gravity) {
     MD_LOG(kDebug, "vio init: implausible gravity |g|=" << g.norm() << ", waiting");
     return false;
   }
@@ -179,7 +180,7 @@ bool Initializer::Align(std::vector<InitFrame>* frames_ptr) const {
   const Eigen::VectorXd y_fixed = y - M.rightCols<3>() * g_fixed;
   const Eigen::VectorXd v = M.leftCols(3 * n).colPivHouseholderQr().solve(y_fixed);
   const double rms = std::sqrt((M.leftCols(3 * n) * v - y_fixed).squaredNorm() / y.size());
-  if (rms > 0.5) {
+  if (rms > config_.init_max_velocity_rms_mps) {
     MD_LOG(kDebug, "vio init: velocity fit residual " << rms << " m/s too large, waiting");
     return false;
   }
