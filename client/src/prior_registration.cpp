@@ -105,8 +105,18 @@ struct PriorRegistrar::Impl {
     }
   }
 
+  // ProbeSecondMinima for an outcome computed without it (the winner of a search).
+  void ProbeSecondMinima(const PointCloud& local, RegistrationOutcome* out) {
+    const GicpCloud* tgt = Target(out->T_map_body.translation());
+    if (tgt == nullptr) return;
+    const GicpCloud source(local, Params(config.max_correspondence_m));
+    ProbeSecondMinima(*tgt, source, local, out->T_map_body, &out->covariance);
+  }
+
+  // probe: ProbeSecondMinima on an accepted result (off for each hypothesis of a search, whose
+  // winner alone is probed).
   RegistrationOutcome Run(const PointCloud& local, const SE3& guess, double coarse_corr_m,
-                          const RegistrationGate& gate) {
+                          const RegistrationGate& gate, bool probe) {
     const auto start = std::chrono::steady_clock::now();
     RegistrationOutcome out;
     out.source_points = local.size();
@@ -133,7 +143,9 @@ struct PriorRegistrar::Impl {
     // Correlated cloud errors do not average out over more points (see covariance_full_points).
     out.covariance = result.covariance * std::max(1.0, static_cast<double>(result.num_inliers) /
                                                            config.covariance_full_points);
-    if (out.accepted) ProbeSecondMinima(*tgt, source, local, out.T_map_body, &out.covariance);
+    if (out.accepted && probe) {
+      ProbeSecondMinima(*tgt, source, local, out.T_map_body, &out.covariance);
+    }
     out.fitness_m = result.fitness_m;
     out.inlier_fraction = result.num_source_points == 0
                               ? 0.0
@@ -144,6 +156,17 @@ struct PriorRegistrar::Impl {
     out.iterations = result.iterations;
     out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return out;
+  }
+
+  RegistrationOutcome RefineInitialPose(const PointCloud& local, const SE3& guess,
+                                        double max_guess_error_m, double max_guess_error_rad,
+                                        const std::optional<Eigen::Vector3d>& odometry_up,
+                                        bool probe) {
+    RegistrationGate gate = Gate(odometry_up);
+    gate.max_correction_m = max_guess_error_m;
+    gate.max_correction_rad = max_guess_error_rad;
+    const double coarse = std::max(2.5 * config.max_correspondence_m, 2.0 * max_guess_error_m);
+    return Run(local, guess, coarse, gate, probe);
   }
 };
 
@@ -161,17 +184,14 @@ RegistrationOutcome PriorRegistrar::Register(const PointCloud& local_body, const
   RegistrationGate gate = impl_->Gate(odometry_up);
   gate.max_correction_m = impl_->config.max_correction_m;
   gate.max_correction_rad = impl_->config.max_correction_deg * M_PI / 180.0;
-  return impl_->Run(local_body, guess, 0.0, gate);
+  return impl_->Run(local_body, guess, 0.0, gate, /*probe=*/true);
 }
 
 RegistrationOutcome PriorRegistrar::RefineInitialPose(
     const PointCloud& local_body, const SE3& guess, double max_guess_error_m,
     double max_guess_error_rad, const std::optional<Eigen::Vector3d>& odometry_up) {
-  RegistrationGate gate = impl_->Gate(odometry_up);
-  gate.max_correction_m = max_guess_error_m;
-  gate.max_correction_rad = max_guess_error_rad;
-  const double coarse = std::max(2.5 * impl_->config.max_correspondence_m, 2.0 * max_guess_error_m);
-  return impl_->Run(local_body, guess, coarse, gate);
+  return impl_->RefineInitialPose(local_body, guess, max_guess_error_m, max_guess_error_rad,
+                                  odometry_up, /*probe=*/true);
 }
 
 RegistrationOutcome PriorRegistrar::RefineAmongGuesses(
@@ -182,8 +202,9 @@ RegistrationOutcome PriorRegistrar::RefineAmongGuesses(
   RegistrationOutcome first_rejected;
   const double close_radius = 0.5 * impl_->config.max_fitness_m;
   for (const SE3& guess : guesses) {
-    RegistrationOutcome r =
-        RefineInitialPose(local_body, guess, max_guess_error_m, max_guess_error_rad, odometry_up);
+    RegistrationOutcome r = impl_->RefineInitialPose(local_body, guess, max_guess_error_m,
+                                                     max_guess_error_rad, odometry_up,
+                                                     /*probe=*/false);
     const double close =
         r.accepted ? impl_->CloseFraction(local_body, r.T_map_body, close_radius) : 0.0;
     MD_LOG(kDebug, "re-anchor hypothesis at ("
@@ -221,6 +242,7 @@ RegistrationOutcome PriorRegistrar::RefineAmongGuesses(
   }
   best.reason = "accepted (" + std::to_string(accepted.size()) + " of " +
                 std::to_string(guesses.size()) + " guesses)";
+  impl_->ProbeSecondMinima(local_body, &best);
   return best;
 }
 
