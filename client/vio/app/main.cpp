@@ -110,6 +110,10 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
     c->gauge_free_prior = v != 0;
   else if (key == "init_pnp_points")
     c->init_max_pnp_points = static_cast<int>(v);
+  else if (key == "init_gravity_error")
+    c->init_max_gravity_error = v;
+  else if (key == "init_velocity_rms")
+    c->init_max_velocity_rms_mps = v;
   else {
     *error = "--set: unknown key '" + key + "'";
     return false;
@@ -149,7 +153,8 @@ bool Parse(int argc, char** argv, Options* o) {
           "(sigmas), sigma_ba "
           "(m/s^2), sigma_bg (rad/s), init_bias_gate (sigmas), gyro_floor, accel_floor, "
           "gyro_walk_floor, accel_walk_floor (IMU noise floors), max_time (s), "
-          "gauge_free_prior (0/1), init_pnp_points",
+          "gauge_free_prior (0/1), init_pnp_points, init_gravity_error (relative), "
+          "init_velocity_rms (m/s)",
           "KEY=VALUE")
       .Option("log-level", &o->log_level, "log level")
       .Choices("log-level", {"debug", "info", "warn", "error", "off"})

@@ -67,12 +67,15 @@ struct VioConfig {
   int init_max_pnp_points = 200;
   // The initialization is refused (and retried a frame later) when the gravity it estimates
   // from the chain is further than this from `gravity` (relative), or when the velocities fit
-  // the chain worse than init_max_velocity_rms_mps once gravity is fixed. Paper S1_dark, big
-  // noise, seed 1 initializes at |g| 10.42 and 0.44 m/s, and its keyframes before the start-up
-  // registration land 1-2.2 m off; 0.03 and 0.25 m/s fixed that (fused error over the first
-  // 10 s 0.72 -> 0.13 m) but delayed the tiny preset's S2_01 (400 px, chains fitting at
-  // 0.3-0.7 m/s) from 0.9 to 6.0 s, so the limits stay (docs/results.md, session 21).
-  double init_max_gravity_error = 0.1;
+  // the chain worse than init_max_velocity_rms_mps once gravity is fixed. |g| is the better
+  // judge of a chain: the accepted chains of the paper and tiny sequences are within 3.4 % of
+  // 9.81 (S1_mirror small) while paper S1_dark, big noise, seed 1 first passed at 6.2 % (|g|
+  // 10.42, fit 0.44 m/s) and its VIO then drifted 2 m in 3 s before the window recovered;
+  // at 5 % it starts 1 s later from a 2.0 % chain and drifts 0.35 m over the same 4 s. The
+  // velocity residual does not separate them (S1_mirror big initializes well at 0.44 m/s),
+  // and a 0.25 m/s limit delayed the tiny S2_01 (400 px, chains fitting at 0.3-0.7 m/s) from
+  // 0.9 to 6.0 s (docs/results.md, sessions 21-22).
+  double init_max_gravity_error = 0.05;
   double init_max_velocity_rms_mps = 0.5;
   double pixel_sigma = 1.0;   // feature measurement noise, px
   double huber_sigmas = 1.5;  // robust loss threshold in units of pixel_sigma
