@@ -182,7 +182,7 @@ Odometry MakeOdometry(const RunOptions& o, const StereoInput& input) {
     odometry.injected = std::make_unique<InjectedResetOdometrySource>(
         odometry.source.get(),
         frames.front().t_ns + static_cast<int64_t>(o.inject_reset_at_s * 1e9), o.inject_reset_gap_s,
-        T_new_old);
+        T_new_old, &input.sequence().imu_samples, input.sequence().imu.T_body_imu.linear());
     MD_LOG(kInfo, "injecting an odometry reset at +" << o.inject_reset_at_s << " s (gap "
                                                      << o.inject_reset_gap_s << " s)");
   }

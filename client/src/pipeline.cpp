@@ -146,15 +146,16 @@ class Backend {
       }
     }
     const KeyframeDepth& kf = raw_[i];
-    const size_t k =
-        fusion_.AddKeyframe(kf.t_ns, kf.odom.T_odom_body, kf.odom.rel_covariance, kf.odom.segment);
+    const size_t k = fusion_.AddKeyframe(kf.t_ns, kf.odom.T_odom_body, kf.odom.rel_covariance,
+                                         kf.odom.segment, kf.odom.bridge);
     if (k > 0 && fusion_.SegmentOf(k) != fusion_.SegmentOf(k - 1)) {
       ++result_->odometry_resets;
       since_cloud_ = 0;  // local clouds never mix segments
-      MD_LOG(kWarn, "odometry segment "
-                        << kf.odom.segment << " starts at keyframe " << k
-                        << ": odometry chain broken, predicted at constant velocity "
-                           "until a registration re-anchors it");
+      MD_LOG(kWarn, "odometry segment " << kf.odom.segment << " starts at keyframe " << k
+                                        << ": odometry chain broken, "
+                                        << (kf.odom.bridge ? "bridged by the IMU"
+                                                           : "predicted at constant velocity")
+                                        << " until a registration re-anchors it");
     }
     filtered_.push_back(std::move(filtered));
     registration_depth_.push_back(std::move(for_registration));
@@ -292,16 +293,29 @@ class Backend {
                            config_.local_cloud);
   }
 
-  // Hypotheses for keyframe k of a segment not yet anchored: the segment start at the
-  // constant-velocity prediction or at the last fused pose before the gap, turned about the
-  // vertical by evenly spaced headings, then carried to k by the segment's odometry.
+  // Hypotheses for keyframe k of a segment not yet anchored, carried from the segment start to
+  // k by the segment's odometry. Bridged by the IMU, the start's heading is known and only its
+  // distance along the gap is not (the speed in between was interpolated): the bridged pose
+  // and the same heading at 3/4 and 1/2 of the way from the last fused pose. Otherwise: the
+  // start at the constant-velocity prediction or at the last fused pose before the gap, each
+  // turned about the vertical by evenly spaced headings.
   std::vector<SE3> ReanchorGuesses(size_t k) const {
     const size_t s0 = fusion_.SegmentStart(k);
     const SE3 along = fusion_.OdometryPose(s0).inverse() * fusion_.OdometryPose(k);
+    std::vector<SE3> guesses;
+    if (fusion_.SegmentBridged(k) && s0 > 0) {
+      const SE3 bridged = fusion_.FusedPose(s0);
+      const Eigen::Vector3d last = fusion_.FusedPose(s0 - 1).translation();
+      for (double share : {1.0, 0.75, 0.5}) {
+        SE3 start = bridged;
+        start.translation() = last + share * (bridged.translation() - last);
+        guesses.push_back(start * along);
+      }
+      return guesses;
+    }
     std::vector<SE3> starts{fusion_.FusedPose(s0)};
     if (s0 > 0) starts.push_back(fusion_.FusedPose(s0 - 1));
     const int n = config_.registration.reanchor_yaw_hypotheses;
-    std::vector<SE3> guesses;
     for (int i = 0; i < n; ++i) {
       const Eigen::Matrix3d yaw =
           Eigen::AngleAxisd(2.0 * M_PI * i / n, Eigen::Vector3d::UnitZ()).toRotationMatrix();

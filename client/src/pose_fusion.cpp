@@ -137,7 +137,8 @@ void PoseFusion::SetInitialPose(const SE3& T_map_body, const Matrix6& covariance
 }
 
 size_t PoseFusion::AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
-                               const std::optional<Matrix6>& rel_covariance, int segment) {
+                               const std::optional<Matrix6>& rel_covariance, int segment,
+                               const std::optional<OdometryBridge>& bridge) {
   if (!IsValidPose(T_odom_body, 1e-6)) {
     throw Error(ErrorCode::kInvalidArgument,
                 "fusion: odometry pose is not a valid rigid transform");
@@ -162,9 +163,20 @@ size_t PoseFusion::AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
     // Odometry reset: the new pose is unrelated to the previous segment's frame.
     s.rel_covariance.reset();
     Matrix6 covariance;
-    const SE3 predicted = PredictAcrossGap(t_ns, &covariance);
+    SE3 predicted;
+    if (bridge) {
+      if (!IsValidPose(bridge->T_prev_odom_body, 1e-6))
+        throw Error(ErrorCode::kInvalidArgument, "fusion: bridge pose is not a rigid transform");
+      SqrtInformation(bridge->covariance);  // validates
+      predicted = FusedPose(keyframes_.size() - 1) * keyframes_.back().T_odom_body.inverse() *
+                  bridge->T_prev_odom_body;
+      covariance = bridge->covariance;
+    } else {
+      predicted = PredictAcrossGap(t_ns, &covariance);
+    }
     SetState(&s, predicted);
-    segments_.push_back({segment, keyframes_.size(), predicted, covariance, false});
+    segments_.push_back(
+        {segment, keyframes_.size(), predicted, covariance, false, bridge.has_value()});
   } else {
     const auto& prev = keyframes_.back();
     SetState(&s, FusedPose(keyframes_.size() - 1) * (prev.T_odom_body.inverse() * T_odom_body));

@@ -18,6 +18,11 @@ struct VioOdometrySource::Impl {
   int resets = 0;  // also the segment of the poses reported now
   std::mutex prepared_mutex;
   std::deque<vio::TrackedFrame> prepared;  // front-end output of frames At() has not reached
+  // The last estimate before a reset, until the first one after it is bridged to it.
+  std::optional<GapEnd> last_before_reset;
+  Eigen::Vector3d last_gyro_bias = Eigen::Vector3d::Zero();
+  std::optional<GapEnd> last_estimate;
+  bool bridge_pending = false;
 
   static vio::GrayImageView View(const GrayImage& image) {
     return {image.width, image.height, image.width, image.pixels.data()};
@@ -72,12 +77,31 @@ std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns, const StereoIm
   }
   const vio::FrameEstimate e = impl_->vio->AddTrackedFrame(*tracked);
   if (e.reset) {
+    impl_->last_before_reset = impl_->last_estimate;
+    impl_->bridge_pending = impl_->last_estimate.has_value();
     ++impl_->resets;
     MD_LOG(kWarn, "VIO reset at t_ns " << t_ns << ": odometry segment " << impl_->resets
                                        << " starts when it re-initializes (new world frame)");
   }
   if (!e.initialized) return std::nullopt;
-  OdometrySample sample{e.T_world_body, std::nullopt, impl_->resets};
+  OdometrySample sample;
+  sample.T_odom_body = e.T_world_body;
+  sample.segment = impl_->resets;
+  sample.v_odom = e.v_world;
+  sample.gyro_bias = e.gyro_bias;
+  const GapEnd here{t_ns, e.T_world_body, e.v_world};
+  if (impl_->bridge_pending) {
+    impl_->bridge_pending = false;
+    sample.bridge =
+        BridgeGap(*impl_->last_before_reset, here, imu,
+                  impl_->input->sequence().imu.T_body_imu.linear(), impl_->last_gyro_bias);
+    MD_LOG(kInfo, "VIO re-initialized at t_ns "
+                      << t_ns
+                      << (sample.bridge ? ": bridged from the last pose before the reset by the IMU"
+                                        : ": the IMU does not cover the gap, no bridge"));
+  }
+  impl_->last_estimate = here;
+  impl_->last_gyro_bias = e.gyro_bias;
   return sample;
 }
 

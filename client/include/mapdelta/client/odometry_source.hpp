@@ -6,6 +6,7 @@
 #include <string>
 
 #include "mapdelta/client/image.hpp"
+#include "mapdelta/client/imu_gap_bridge.hpp"
 #include "mapdelta/common/pose.hpp"
 
 namespace mapdelta::client {
@@ -18,6 +19,12 @@ struct OdometrySample {
   // re-initialization in a new, arbitrary world frame). Poses of different segments are
   // unrelated: the client breaks its odometry chain there and re-localizes in the map.
   int segment = 0;
+  // The velocity in the odometry frame and the gyro bias (IMU frame), when the source
+  // estimates them (a VIO).
+  std::optional<Eigen::Vector3d> v_odom, gyro_bias;
+  // A segment's first sample: its pose in the previous segment's frame, bridged across the
+  // gap by the IMU (imu_gap_bridge.hpp), when the source can.
+  std::optional<OdometryBridge> bridge;
 };
 
 // A stereo frame already decoded (the pipeline decodes on its own thread, once for the
@@ -65,8 +72,12 @@ class TrajectoryOdometrySource : public OdometrySource {
 // every time so its state advances as without the reset.
 class InjectedResetOdometrySource : public OdometrySource {
  public:
+  // With `imu` (the sequence's samples, outliving this) and an inner source that reports
+  // velocity and gyro bias, the first sample after the gap carries the IMU bridge across it,
+  // as a VIO's real reset does.
   InjectedResetOdometrySource(OdometrySource* inner, int64_t reset_t_ns, double gap_s,
-                              const SE3& T_new_old);
+                              const SE3& T_new_old, const std::vector<ImuSample>* imu = nullptr,
+                              const Eigen::Matrix3d& R_body_imu = Eigen::Matrix3d::Identity());
   std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* images) override;
   bool NeedsImages() const override { return inner_->NeedsImages(); }
   void PrepareFrame(int64_t t_ns, const StereoImages& images) override {
@@ -80,6 +91,10 @@ class InjectedResetOdometrySource : public OdometrySource {
   int64_t reset_t_ns_;
   int64_t gap_end_t_ns_;
   SE3 T_new_old_;
+  const std::vector<ImuSample>* imu_;
+  Eigen::Matrix3d R_body_imu_;
+  std::optional<OdometrySample> last_before_;  // the last sample before the gap
+  int64_t last_before_t_ns_ = 0;
 };
 
 }  // namespace mapdelta::client

@@ -11,9 +11,11 @@
 //     heading included) as a full 6-DoF pose factor; it is also the relative rotation
 //     factors' reference frame a.
 // Odometry resets: every keyframe carries its odometry segment (OdometrySample::segment). No
-// odometry factor joins two segments; a new segment's first keyframe starts at a
-// constant-velocity prediction from the last fused poses, held by a weak pose prior
-// (FusionConfig::reset_sigma_*), and the segment's first accepted registration enters as a
+// odometry factor joins two segments; a new segment's first keyframe starts at the IMU's
+// bridge across the gap when the odometry gives one (imu_gap_bridge.hpp), else at a
+// constant-velocity prediction from the last fused poses, held by a pose prior with the
+// bridge's covariance or the weak FusionConfig::reset_sigma_*; the segment's first accepted
+// registration enters as a
 // full 6-DoF pose factor (it re-anchors the segment, like the start-up fix). Re-anchoring drops
 // the weak prior and re-seeds the segment's poses from the registration through the odometry.
 // Registration factors use the registration covariance and a Huber loss. All covariances are
@@ -23,6 +25,7 @@
 #include <vector>
 
 #include "mapdelta/client/config.hpp"
+#include "mapdelta/client/imu_gap_bridge.hpp"
 #include "mapdelta/common/pose.hpp"
 
 namespace ceres {
@@ -52,9 +55,11 @@ class PoseFusion {
   // is the covariance of the motion from the previous keyframe (right perturbation), if known.
   // The new keyframe's fused pose starts as the previous fused pose times the odometry motion.
   // A keyframe whose segment differs from the previous keyframe's starts a new segment (see
-  // the header comment); rel_covariance is then ignored.
+  // the header comment); rel_covariance is then ignored, and `bridge` (its pose in the
+  // previous segment's odometry frame) places it if given.
   size_t AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
-                     const std::optional<Matrix6>& rel_covariance = std::nullopt, int segment = 0);
+                     const std::optional<Matrix6>& rel_covariance = std::nullopt, int segment = 0,
+                     const std::optional<OdometryBridge>& bridge = std::nullopt);
   // An accepted registration of keyframe k: its measured T_map_body and covariance.
   // Throws Error(kInvalidArgument) on a bad index, pose or covariance.
   void AddRegistration(size_t k, const SE3& T_map_body, const Matrix6& covariance);
@@ -79,6 +84,8 @@ class PoseFusion {
   // Whether keyframe k's segment has an accepted registration (is tied to the map).
   bool SegmentAnchored(size_t k) const;
   size_t num_segments() const { return segments_.size(); }
+  // Whether keyframe k's segment started from an IMU bridge (its heading is known).
+  bool SegmentBridged(size_t k) const { return segments_[SegmentIndex(k)].bridged; }
   // First keyframe of keyframe k's segment.
   size_t SegmentStart(size_t k) const { return segments_[SegmentIndex(k)].first_k; }
   // Index of the newest keyframe that has a registration after it (or -1).
@@ -107,6 +114,7 @@ class PoseFusion {
     SE3 T_map_body_start = SE3::Identity();
     Matrix6 covariance = Matrix6::Identity();
     bool anchored = false;
+    bool bridged = false;
   };
   size_t SegmentIndex(size_t k) const;  // index into segments_ of keyframe k's segment
   SE3 PredictAcrossGap(int64_t t_ns, Matrix6* covariance) const;
