@@ -18,16 +18,19 @@ inline constexpr double kFrameDt = 0.05;                       // 20 Hz
 inline constexpr int kImuPerFrame = 10;                        // 200 Hz
 inline const Eigen::Vector3d kGyroBias(-0.002, 0.021, 0.078);  // EuRoC V1_01's, rad/s
 
-// Camera z forward (body x), x right (body -y), y down (body -z); cam1 `baseline_m` to the right.
-inline StereoExtrinsics Rig(double baseline_m = 0.11) {
+// Camera z forward (body x), x right (body -y), y down (body -z); cam0 at `cam0_in_body`, cam1
+// `baseline_m` to its right.
+inline StereoExtrinsics Rig(double baseline_m = 0.11,
+                            const Eigen::Vector3d& cam0_in_body = Eigen::Vector3d(0.1, 0.055, 0),
+                            double focal_px = 450.0) {
   Eigen::Matrix3d R_body_cam;
   R_body_cam << 0, 0, 1, -1, 0, 0, 0, -1, 0;
   StereoExtrinsics ext;
   ext.T_body_cam0.linear() = R_body_cam;
-  ext.T_body_cam0.translation() = Eigen::Vector3d(0.1, 0.055, 0);
+  ext.T_body_cam0.translation() = cam0_in_body;
   ext.T_body_cam1 = ext.T_body_cam0;
-  ext.T_body_cam1.translation() = Eigen::Vector3d(0.1, 0.055 - baseline_m, 0);
-  ext.focal_px = 450.0;
+  ext.T_body_cam1.translation() = cam0_in_body - Eigen::Vector3d(0, baseline_m, 0);
+  ext.focal_px = focal_px;
   return ext;
 }
 

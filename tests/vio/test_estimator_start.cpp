@@ -12,6 +12,7 @@
 
 #include "mapdelta/vio/estimator.hpp"
 #include "mapdelta/vio/imu_preintegration.hpp"
+#include "synthetic_init_scene.hpp"
 
 using namespace mapdelta;
 using namespace mapdelta::vio;
@@ -43,17 +44,9 @@ struct Drive {
   }
 };
 
+// A car-mounted rig: 0.5 m baseline, 1.5 m up.
 StereoExtrinsics Rig() {
-  // Camera z forward (body x), x right (body -y), y down (body -z); cam1 0.5 m to the right.
-  Eigen::Matrix3d R_body_cam;
-  R_body_cam << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  StereoExtrinsics ext;
-  ext.T_body_cam0.linear() = R_body_cam;
-  ext.T_body_cam0.translation() = Eigen::Vector3d(0.2, 0.25, 1.5);
-  ext.T_body_cam1 = ext.T_body_cam0;
-  ext.T_body_cam1.translation() = Eigen::Vector3d(0.2, -0.25, 1.5);
-  ext.focal_px = 400.0;
-  return ext;
+  return mapdelta::vio::testing::Rig(0.5, Eigen::Vector3d(0.2, 0.25, 1.5), 400.0);
 }
 
 ImuNoiseDensities Noise() {
