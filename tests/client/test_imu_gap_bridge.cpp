@@ -8,6 +8,7 @@
 #include <random>
 
 #include "mapdelta/client/imu_gap_bridge.hpp"
+#include "mapdelta/client/odometry_source.hpp"
 #include "mapdelta/client/pose_fusion.hpp"
 
 using namespace mapdelta;
@@ -160,4 +161,54 @@ TEST(ImuGapBridge, TheFusionStartsABridgedSegmentAtTheBridge) {
   const size_t j = plain.AddKeyframe(10 * kSecond, new_frame_pose, std::nullopt, 1);
   EXPECT_FALSE(plain.SegmentBridged(j));
   EXPECT_LT((plain.FusedPose(j).translation() - start.translation()).norm(), 1e-9);
+}
+
+namespace {
+
+// The car as a VIO would report it: pose, velocity and gyro bias at every asked time.
+class CarOdometry : public OdometrySource {
+ public:
+  explicit CarOdometry(const Car& car) : car_(car) {}
+  std::optional<OdometrySample> At(int64_t t_ns, const StereoImages* /*images*/) override {
+    const double t = 1e-9 * static_cast<double>(t_ns);
+    OdometrySample s;
+    s.T_odom_body = car_.Pose(t);
+    s.v_odom = car_.Velocity(t);
+    s.gyro_bias = kGyroBias;
+    return s;
+  }
+
+ private:
+  Car car_;
+};
+
+}  // namespace
+
+TEST(ImuGapBridge, AnInjectedResetOverAVioBridgesItsFirstSampleOnly) {
+  const Car car;
+  CarOdometry inner(car);
+  const std::vector<ImuSample> imu = car.Imu(0, 12, 4);
+  InjectedResetOdometrySource reset(&inner, kSecond / 2, 10.0, NewFromOld(), &imu);
+  std::vector<OdometrySample> after;
+  for (int64_t t = 0; t <= 11 * kSecond; t += kSecond / 20) {
+    if (auto s = reset.At(t, nullptr)) {
+      EXPECT_FALSE(s->bridge.has_value() && s->segment == 0);
+      if (s->segment == 1) after.push_back(*s);
+    }
+  }
+  ASSERT_GE(after.size(), 2u);
+  ASSERT_TRUE(after[0].bridge.has_value());
+  EXPECT_FALSE(after[1].bridge.has_value());
+  // The bridge is in the old frame: the inner (never reset) pose at the first sample after.
+  const SE3 truth = car.Pose(10.5);
+  EXPECT_LT(HeadingErrorDeg(after[0].bridge->T_prev_odom_body, truth), 0.5);
+  EXPECT_LT((after[0].bridge->T_prev_odom_body.translation() - truth.translation()).norm(), 0.5);
+  // Without the IMU, no bridge (the pipeline then predicts at constant velocity).
+  CarOdometry inner2(car);
+  InjectedResetOdometrySource no_imu(&inner2, kSecond / 2, 10.0, NewFromOld());
+  for (int64_t t = 0; t <= 11 * kSecond; t += kSecond / 20) {
+    if (auto s = no_imu.At(t, nullptr)) {
+      EXPECT_FALSE(s->bridge.has_value());
+    }
+  }
 }
