@@ -49,7 +49,7 @@ TEST(MovingInit, RefusesAChainThatDisagreesWithTheImuAboutGravity) {
   VioConfig lenient;
   lenient.init_max_gravity_error = 0.1;
   EXPECT_TRUE(RunUntilInitialized(&lifted_again, 1.5, lenient).frames.has_value());
-  // A 3 % disagreement (S1_mirror small's accepted chains reach 3.4 %) still starts at once.
+  // A 3 % disagreement (the paper sequences start from chains up to 4.5 % off) starts at once.
   Scene slightly = Driving();
   slightly.camera_only_lift = 0.3;
   const Outcome accepted = RunUntilInitialized(&slightly, 1.5);
