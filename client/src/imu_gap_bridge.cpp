@@ -21,7 +21,10 @@ std::optional<OdometryBridge> BridgeGap(const GapEnd& before, const GapEnd& afte
   // Body-frame velocity at both ends; linear in time in between.
   const Eigen::Vector3d v_body_before = before.T_odom_body.linear().transpose() * before.v_odom;
   const Eigen::Vector3d v_body_after = after.T_odom_body.linear().transpose() * after.v_odom;
-  // Attitude relative to `before`'s body, and position in `before`'s odometry frame.
+  // Attitude relative to `before`'s body, and position in `before`'s odometry frame. Only the
+  // gyro is integrated (the accelerometer's double integral over seconds is worse than the
+  // interpolated velocity), so the VIO's preintegration is not needed here; mapdelta_client
+  // does not link the VIO library.
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d p = Eigen::Vector3d::Zero();
   double path_m = 0;

@@ -18,10 +18,10 @@ struct VioOdometrySource::Impl {
   int resets = 0;  // also the segment of the poses reported now
   std::mutex prepared_mutex;
   std::deque<vio::TrackedFrame> prepared;  // front-end output of frames At() has not reached
-  // The last estimate before a reset, until the first one after it is bridged to it.
-  std::optional<GapEnd> last_before_reset;
-  Eigen::Vector3d last_gyro_bias = Eigen::Vector3d::Zero();
+  // The last estimate and its gyro bias: after a reset (no estimates until the VIO
+  // re-initializes) the last before the gap, which the first after it is bridged to.
   std::optional<GapEnd> last_estimate;
+  Eigen::Vector3d last_gyro_bias = Eigen::Vector3d::Zero();
   bool bridge_pending = false;
 
   static vio::GrayImageView View(const GrayImage& image) {
@@ -77,7 +77,6 @@ std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns, const StereoIm
   }
   const vio::FrameEstimate e = impl_->vio->AddTrackedFrame(*tracked);
   if (e.reset) {
-    impl_->last_before_reset = impl_->last_estimate;
     impl_->bridge_pending = impl_->last_estimate.has_value();
     ++impl_->resets;
     MD_LOG(kWarn, "VIO reset at t_ns " << t_ns << ": odometry segment " << impl_->resets
@@ -93,7 +92,7 @@ std::optional<OdometrySample> VioOdometrySource::At(int64_t t_ns, const StereoIm
   if (impl_->bridge_pending) {
     impl_->bridge_pending = false;
     sample.bridge =
-        BridgeGap(*impl_->last_before_reset, here, imu,
+        BridgeGap(*impl_->last_estimate, here, imu,
                   impl_->input->sequence().imu.T_body_imu.linear(), impl_->last_gyro_bias);
     MD_LOG(kInfo, "VIO re-initialized at t_ns "
                       << t_ns
