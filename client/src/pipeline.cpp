@@ -165,7 +165,9 @@ class Backend {
       raw_.pop_front();
       --filtered_in_window_;
     }
-    if (++since_cloud_ == static_cast<size_t>(config_.local_cloud.keyframes)) {
+    const auto& lc = config_.local_cloud;
+    if (++since_cloud_ ==
+        static_cast<size_t>(lc.every_keyframes > 0 ? lc.every_keyframes : lc.keyframes)) {
       since_cloud_ = 0;
       Register(k);
     }
@@ -285,6 +287,7 @@ class Backend {
     std::vector<LocalCloudFrame> frames;
     for (size_t j = k + 1 - std::min(k + 1, n); j <= k; ++j) {
       if (j < first_unemitted_) continue;  // already handed downstream (only with odd configs)
+      if (fusion_.SegmentOf(j) != fusion_.SegmentOf(k)) continue;  // another odometry frame
       const size_t q = j - first_unemitted_;
       frames.push_back({fusion_.OdometryPose(j),
                         registration_depth_[q] ? &*registration_depth_[q] : &filtered_[q]});

@@ -23,15 +23,51 @@ struct RelativePoseCost {
   Eigen::Vector3d dt;
   Matrix6 U;
   template <typename T>
-  bool operator()(const T* qi_, const T* pi_, const T* qj_, const T* pj_, T* out) const {
+  bool operator()(const T* qi, const T* pi, const T* qj, const T* pj, T* out) const {
+    return Residual(qi, pi, qj, pj, T(1), out);
+  }
+  // With the measured translation scaled by `scale`.
+  template <typename T>
+  bool Residual(const T* qi_, const T* pi_, const T* qj_, const T* pj_, const T& scale,
+                T* out) const {
     Eigen::Map<const Eigen::Quaternion<T>> qi(qi_), qj(qj_);
     Eigen::Map<const Vec3<T>> pi(pi_), pj(pj_);
     const Eigen::Quaternion<T> dq_inv = dq.conjugate().cast<T>();
     Eigen::Matrix<T, 6, 1> r;
     r.template head<3>() = LogQuaternion<T>(dq_inv * (qi.conjugate() * qj));
-    r.template tail<3>() = dq_inv * (qi.conjugate() * (pj - pi) - dt.cast<T>());
+    r.template tail<3>() = dq_inv * (qi.conjugate() * (pj - pi) - scale * dt.cast<T>());
     Eigen::Map<Eigen::Matrix<T, 6, 1>> res(out);
     res = U.cast<T>() * r;
+    return true;
+  }
+};
+
+// The same with the odometry's scale state: the measured translation times exp(log_scale) of
+// keyframe j.
+struct ScaledRelativePoseCost {
+  RelativePoseCost unscaled;
+  template <typename T>
+  bool operator()(const T* qi, const T* pi, const T* qj, const T* pj, const T* log_scale,
+                  T* out) const {
+    return unscaled.Residual(qi, pi, qj, pj, T(exp(log_scale[0])), out);
+  }
+};
+
+// The log scale's random walk between consecutive keyframes, and its prior (0) at a
+// segment's first keyframe, each whitened by 1 / sigma.
+struct LogScaleStepCost {
+  double inv_sigma;
+  template <typename T>
+  bool operator()(const T* a, const T* b, T* out) const {
+    out[0] = inv_sigma * (b[0] - a[0]);
+    return true;
+  }
+};
+struct LogScalePriorCost {
+  double inv_sigma;
+  template <typename T>
+  bool operator()(const T* a, T* out) const {
+    out[0] = inv_sigma * a[0];
     return true;
   }
 };
@@ -179,7 +215,11 @@ size_t PoseFusion::AddKeyframe(int64_t t_ns, const SE3& T_odom_body,
         {segment, keyframes_.size(), predicted, covariance, false, bridge.has_value()});
   } else {
     const auto& prev = keyframes_.back();
-    SetState(&s, FusedPose(keyframes_.size() - 1) * (prev.T_odom_body.inverse() * T_odom_body));
+    // The step at the previous keyframe's scale (1 without the scale state).
+    SE3 step = prev.T_odom_body.inverse() * T_odom_body;
+    s.log_scale[0] = prev.log_scale[0];
+    step.translation() *= std::exp(s.log_scale[0]);
+    SetState(&s, FusedPose(keyframes_.size() - 1) * step);
   }
   keyframes_.push_back(s);
   return keyframes_.size() - 1;
@@ -312,7 +352,12 @@ FusionSummary PoseFusion::Optimize(int max_iterations, const std::vector<size_t>
     auto& s = keyframes_[segment.first_k];
     problem.AddResidualBlock(cost, nullptr, s.q, s.p);
   }
-  // 2. Odometry between consecutive keyframes of the same segment.
+  // 2. Odometry between consecutive keyframes of the same segment, with the scale state if
+  //    configured (every keyframe then has a log scale block).
+  const bool scale_state = config_.odom_scale_sigma_per_sqrt_s > 0;
+  if (scale_state) {
+    for (auto& s : keyframes_) problem.AddParameterBlock(s.log_scale, 1);
+  }
   for (size_t k = 1; k < keyframes_.size(); ++k) {
     auto& a = keyframes_[k - 1];
     auto& b = keyframes_[k];
@@ -324,10 +369,31 @@ FusionSummary PoseFusion::Optimize(int max_iterations, const std::vector<size_t>
                             : DiagonalCovariance(config_.odom_sigma_rot_rad,
                                                  config_.odom_sigma_trans_m +
                                                      config_.odom_sigma_trans_per_m * step);
-    auto* cost =
-        new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(new RelativePoseCost{
-            Eigen::Quaterniond(dT.linear()), dT.translation(), SqrtInformation(cov)});
-    problem.AddResidualBlock(cost, nullptr, a.q, a.p, b.q, b.p);
+    const RelativePoseCost relative{Eigen::Quaterniond(dT.linear()), dT.translation(),
+                                    SqrtInformation(cov)};
+    if (!scale_state) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(
+                                   new RelativePoseCost(relative)),
+                               nullptr, a.q, a.p, b.q, b.p);
+      continue;
+    }
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ScaledRelativePoseCost, 6, 4, 3, 4, 3, 1>(
+            new ScaledRelativePoseCost{relative}),
+        nullptr, a.q, a.p, b.q, b.p, b.log_scale);
+    const double dt_s = std::max(1e-3, 1e-9 * static_cast<double>(b.t_ns - a.t_ns));
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<LogScaleStepCost, 1, 1, 1>(
+            new LogScaleStepCost{1.0 / (config_.odom_scale_sigma_per_sqrt_s * std::sqrt(dt_s))}),
+        nullptr, a.log_scale, b.log_scale);
+  }
+  if (scale_state) {
+    for (const Segment& segment : segments_) {
+      auto& s = keyframes_[segment.first_k];
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<LogScalePriorCost, 1, 1>(
+                                   new LogScalePriorCost{1.0 / config_.odom_scale_sigma}),
+                               nullptr, s.log_scale);
+    }
   }
   // 3. Registration factors (robust): global position, and rotation relative to the first
   //    registered keyframe.

@@ -25,6 +25,7 @@ struct PriorRegistrar::Impl {
     p.max_correspondence_m = max_correspondence_m;
     p.num_threads = num_threads;
     p.covariance_scale = config.covariance_scale;
+    p.source_as_points = config.source_as_points;
     // voxel_m stays 0 (k-NN covariances): both clouds are already voxelized at 0.4 m, and the
     // voxel-block covariances (voxel_m = 0.4) were measured no faster per registration here
     // (prior rebuilds dominate) and worse on sim S2_01 (fused ATE 0.15 -> 0.18 m).

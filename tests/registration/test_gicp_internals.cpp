@@ -205,5 +205,28 @@ TEST(Linearization, MatchesTextbookGicpTerms) {
   EXPECT_NEAR(fast.error, textbook.error, 1e-9 * textbook.error);
 }
 
+// A source point taken as exact: W' = R^T (C_t + e I)^-1 R, e the plane normal eigenvalue.
+TEST(Linearization, PointToPlaneWeightIsTheTargetPlaneAlone) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    Vector6d d;
+    for (int k = 0; k < 6; ++k) d(k) = n(rng);
+    const Eigen::Matrix3d R = RetractRight(SE3::Identity(), d).linear();
+    Eigen::Vector3f nt(n(rng), n(rng), n(rng));
+    nt = trial % 7 == 3 ? Eigen::Vector3f::Zero() : Eigen::Vector3f(nt.normalized());
+    const Eigen::Matrix3d Ct = PlaneCovariance(nt.cast<double>());
+    const Eigen::Matrix3d expected =
+        R.transpose() * (Ct + kPlaneNormalEigenvalue * Eigen::Matrix3d::Identity()).inverse() * R;
+    const Eigen::Matrix3d fast = PointToPlaneWeight(R.transpose(), nt).Full();
+    EXPECT_LT((fast - expected).cwiseAbs().maxCoeff(), 1e-9 * expected.cwiseAbs().maxCoeff())
+        << "trial " << trial;
+  }
+  // Along the target normal a point weighs as much as two aligned planes do: 1 / (2e).
+  const Eigen::Vector3f up(0, 0, 1);
+  EXPECT_NEAR(PointToPlaneWeight(Eigen::Matrix3d::Identity(), up).zz,
+              SourceFrameWeight(Eigen::Matrix3d::Identity(), up, up).zz, 1e-6);
+}
+
 }  // namespace
 }  // namespace mapdelta::detail

@@ -39,10 +39,13 @@ ensure_dataset() {
   echo "$root"
 }
 
-# Drops a renoised sequence's images after use (they are re-made in seconds); keeps overrides.
+# Drops a renoised sequence's images after use (they are re-made in seconds); keeps --dataset overrides.
 prune_dataset() {
   local root=$1 seq=$2
   [ "$keep_data" = 1 ] && return
+  # A --dataset override is the caller's, even when it lies under --data with a trial's name.
+  local dir
+  for dir in "${dataset_override[@]}"; do [ "$root" = "$dir" ] && return; done
   case "$root" in "$data"/*-n[0-9]*) rm -rf "$root/sequences/$seq/mav0/cam0/data" "$root/sequences/$seq/mav0/cam1/data" ;; esac
 }
 

@@ -90,6 +90,12 @@ class Problem {
     kStepTestAndLinearize,
   };
 
+  detail::Sym3 Weight(const Eigen::Matrix3d& Rt, const Eigen::Vector3f& target_normal,
+                      const Eigen::Vector3f& source_normal) const {
+    return params_.source_as_points ? detail::PointToPlaneWeight(Rt, target_normal)
+                                    : detail::SourceFrameWeight(Rt, target_normal, source_normal);
+  }
+
   PassResult Pass(const SE3& T, Work work) {
     const auto start = std::chrono::steady_clock::now();
     const bool test = work != Work::kLinearize, linearize = work != Work::kStepTest;
@@ -108,7 +114,7 @@ class Problem {
             detail::Sym3 W_old{};
             Eigen::Vector3d u_old = Eigen::Vector3d::Zero();
             if (old_j != kNone) {
-              W_old = detail::SourceFrameWeight(Rt, tn[old_j], sn[i]);
+              W_old = Weight(Rt, tn[old_j], sn[i]);
               u_old = Rt * (tp[old_j].cast<double>() - Ts);
               part.error_old += detail::WeightedError(W_old, u_old);
             }
@@ -122,7 +128,7 @@ class Problem {
               detail::AddTerm(s, u_old, W_old, distance, &part.terms);
             } else {
               detail::AddTerm(s, Rt * (tp[j].cast<double>() - Ts),
-                              detail::SourceFrameWeight(Rt, tn[j], sn[i]), distance, &part.terms);
+                              Weight(Rt, tn[j], sn[i]), distance, &part.terms);
             }
           }
         });

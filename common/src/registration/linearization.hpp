@@ -53,6 +53,19 @@ inline Sym3 SourceFrameWeight(const Eigen::Matrix3d& Rt, const Eigen::Vector3f& 
           0.5 * (p.y() * m.z() + q.y() * n.z()),       0.5 * (1.0 + p.z() * m.z() + q.z() * n.z())};
 }
 
+// The source-frame weight for a source point taken as exact (C_s = e I, e = 1e-3, the plane
+// covariance's normal eigenvalue): with m = R^T n_t, W' = (R^T C_t R + e I)^-1 =
+// (I + c m m^T) / (1 + e), c = a / (1 + e - a m.m) (a / 2e for a unit normal). Point-to-plane
+// against the target's surface, as much weight along its normal as two aligned planes get; a
+// zero target normal gives (1 + e)^-1 I.
+inline Sym3 PointToPlaneWeight(const Eigen::Matrix3d& Rt, const Eigen::Vector3f& target_normal) {
+  constexpr double e = kPlaneNormalEigenvalue, a = 1.0 - e;
+  const Eigen::Vector3d m = Rt * target_normal.cast<double>();
+  const double c = a / (1.0 + e - a * m.squaredNorm()), s = 1.0 / (1.0 + e);
+  return {s * (1.0 + c * m.x() * m.x()), s * c * m.x() * m.y(), s * c * m.x() * m.z(),
+          s * (1.0 + c * m.y() * m.y()), s * c * m.y() * m.z(), s * (1.0 + c * m.z() * m.z())};
+}
+
 // u^T W' u for the residual r = t - (R s + translation) rotated into the source frame.
 inline double WeightedError(const Sym3& W, const Eigen::Vector3d& u) { return u.dot(W * u); }
 

@@ -47,6 +47,9 @@ struct KeyframeSelectionConfig {
 
 struct LocalCloudConfig {
   int keyframes = 5;  // keyframes aggregated into one local cloud
+  // A local cloud is registered every this many keyframes (0 = `keyframes`: clouds do not
+  // overlap).
+  int every_keyframes = 0;
   // Sparse depth (a dark scene, a blank wall) leaves a 5-keyframe cloud too few points for the
   // registration gate's inlier floor: below min_points the cloud grows back over earlier
   // keyframes of the same odometry segment, `keyframes` at a time, up to max_keyframes (kept
@@ -84,6 +87,7 @@ struct RegistrationConfig {
   // along track from 1.0 to 1.7, so the fusion trusted them too much (fused ATE 0.059 -> 0.075
   // m). 2000 is about the clouds the covariance_scale above was measured with.
   double covariance_full_points = 2000.0;
+  bool source_as_points = false;  // GicpParams::source_as_points
   // Second-minimum check of every accepted registration (PriorRegistrar): GICP from the result
   // shifted +-ambiguity_probe_m along the body's x and y; a different pose fitting the prior
   // nearly as well (share of points within max_fitness_m / 2 >= ambiguity_probe_ratio of the
@@ -113,6 +117,11 @@ struct FusionConfig {
   double odom_sigma_trans_m = 0.02;      // per keyframe step ...
   double odom_sigma_trans_per_m = 0.01;  // ... plus this fraction of the step length
   double huber_delta = 2.0;              // robust loss, in whitened (sigma) units
+  // The odometry's translation scale as a slowly varying state: each keyframe's log scale
+  // (random walk, this sigma per sqrt(s); 0 = no scale state) multiplies the step into it,
+  // starting at 0 with odom_scale_sigma at each segment's first keyframe.
+  double odom_scale_sigma_per_sqrt_s = 0.0;
+  double odom_scale_sigma = 0.1;
   int incremental_iterations = 10;
   int final_iterations = 100;
   int final_lag_keyframes = 30;     // keyframes this far behind the newest are final

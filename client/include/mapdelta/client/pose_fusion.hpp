@@ -99,6 +99,7 @@ class PoseFusion {
     int segment = 0;
     double q[4] = {0, 0, 0, 1};  // T_map_body rotation, Eigen order x y z w
     double p[3] = {0, 0, 0};
+    double log_scale[1] = {0};  // of the odometry step into this keyframe (scale state only)
   };
   struct Registration {
     size_t k = 0;

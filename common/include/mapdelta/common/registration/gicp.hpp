@@ -52,6 +52,10 @@ struct GicpParams {
   // 1.0 is calibrated for independent per-point noise; callers whose clouds carry
   // correlated errors (stereo depth bias, odometry drift inside a local cloud) inflate it.
   double covariance_scale = 1.0;
+  // Source points as exact points against the target's planes (point-to-plane) instead of
+  // with their own plane covariances: for sparse sources, whose neighbourhoods span several
+  // surfaces and give normals that cancel the target's.
+  bool source_as_points = false;
 };
 
 // Throws Error(kInvalidArgument) naming the first bad field.
