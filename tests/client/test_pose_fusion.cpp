@@ -118,9 +118,8 @@ Outcome RunCase(const Case& c, unsigned seed, const ResetInjection& reset = {},
       SE3 noisy =
           Perturb(step, Eigen::Vector3d(0, c.pitch_bias, c.yaw_bias) + c.rot_noise * randn3(),
                   c.trans_noise * randn3());
-      noisy.translation() *=
-          1.0 + c.scale_error +
-          c.scale_wander * std::sin(2.0 * M_PI * k / c.scale_period_keyframes);
+      noisy.translation() *= 1.0 + c.scale_error +
+                             c.scale_wander * std::sin(2.0 * M_PI * k / c.scale_period_keyframes);
       T_odom = T_odom * noisy;
     }
     const bool after_reset = reset.at >= 0 && k >= reset.at;

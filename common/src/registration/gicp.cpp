@@ -127,8 +127,8 @@ class Problem {
             if (j == old_j) {
               detail::AddTerm(s, u_old, W_old, distance, &part.terms);
             } else {
-              detail::AddTerm(s, Rt * (tp[j].cast<double>() - Ts),
-                              Weight(Rt, tn[j], sn[i]), distance, &part.terms);
+              detail::AddTerm(s, Rt * (tp[j].cast<double>() - Ts), Weight(Rt, tn[j], sn[i]),
+                              distance, &part.terms);
             }
           }
         });
