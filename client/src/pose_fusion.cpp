@@ -49,7 +49,7 @@ struct ScaledRelativePoseCost {
   template <typename T>
   bool operator()(const T* qi, const T* pi, const T* qj, const T* pj, const T* log_scale,
                   T* out) const {
-    return unscaled.Residual(qi, pi, qj, pj, T(exp(log_scale[0])), out);
+    return unscaled.Residual(qi, pi, qj, pj, exp(log_scale[0]), out);
   }
 };
 

@@ -2,7 +2,9 @@
 // Stage 5: pose fusion (paper section III-A-4, after VINS-Fusion's global fusion). Variables:
 // T_map_body of every keyframe. Factors:
 //   - odometry: relative motion between consecutive keyframes from the VIO, weighted by its
-//     covariance when given, else by FusionConfig's per-step sigmas;
+//     covariance when given, else by FusionConfig's per-step sigmas; with
+//     FusionConfig::odom_scale_sigma_per_sqrt_s > 0 each keyframe also has a log scale of the
+//     odometry's translation (random walk between keyframes, a prior at each segment start);
 //   - global position factor  p_k^p - p_k, from each accepted registration;
 //   - relative rotation factor (q_a^p)^-1 q_k^p (-) q_a^-1 q_k, from the first registered
 //     keyframe a (the paper's "initial frame") to keyframe k;
