@@ -55,7 +55,7 @@ Row Run(const std::string& name, const std::string& sequence_dir, const std::str
   const ClientConfig config;
   const StereoInput input(ReadEurocSequence(sequence_dir));
   const EurocSequence& seq = input.sequence();
-  VioOdometrySource odometry(input);
+  VioOdometrySource odometry(input, config.vio);
   std::unique_ptr<PriorSource> prior;
   if (!prior_path.empty())
     prior = std::make_unique<FilePriorSource>(prior_path, config.registration.prior_voxel_m);

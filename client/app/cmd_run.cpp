@@ -160,11 +160,11 @@ struct Odometry {
   OdometrySource* Get() const { return injected ? injected.get() : source.get(); }
 };
 
-Odometry MakeOdometry(const RunOptions& o, const StereoInput& input) {
+Odometry MakeOdometry(const RunOptions& o, const StereoInput& input, const VioSettings& vio) {
   Odometry odometry;
   if (o.odometry == "vio") {
 #ifdef MAPDELTA_CLIENT_HAS_VIO
-    odometry.source = std::make_unique<VioOdometrySource>(input);
+    odometry.source = std::make_unique<VioOdometrySource>(input, vio);
 #else
     throw Error(ErrorCode::kUnsupported, "--odometry vio: this build has no VIO (client/vio)");
 #endif
@@ -264,7 +264,7 @@ int RunPipelineCommand(int argc, char** argv) {
 
   // The sequence, read and rectified once for every stage (odometry, depth, upload camera).
   const StereoInput input(ReadEurocSequence(o.sequence));
-  const Odometry odometry = MakeOdometry(o, input);
+  const Odometry odometry = MakeOdometry(o, input, config.vio);
   std::unique_ptr<HttpTransport> transport;
   if (!o.server.empty()) transport = MakeHttpTransport(o.server, o.token, config.upload.timeout_s);
   std::unique_ptr<PriorSource> prior;

@@ -15,7 +15,8 @@ ConfigSchema Schema(ClientConfig& c) {
   auto& f = c.fusion;
   auto& u = c.upload;
   ConfigSchema schema;
-  schema.Field("stereo.num_disparities", &s.num_disparities, 16, 1024)
+  schema.Field("vio.smooth_sigma_px", &c.vio.smooth_sigma_px, -1.0, 20.0)
+      .Field("stereo.num_disparities", &s.num_disparities, 16, 1024)
       .Field("stereo.reference_width", &s.reference_width, 1, 100000)
       .Field("stereo.min_disparity", &s.min_disparity, -1024, 1024)
       .Field("stereo.block_size", &s.block_size, 1, 31)

@@ -38,7 +38,8 @@ struct VioOdometrySource::Impl {
   }
 };
 
-VioOdometrySource::VioOdometrySource(const StereoInput& input) : impl_(std::make_unique<Impl>()) {
+VioOdometrySource::VioOdometrySource(const StereoInput& input, const VioSettings& settings)
+    : impl_(std::make_unique<Impl>()) {
   impl_->input = &input;
   const EurocSequence& sequence = input.sequence();
   vio::VioConfig config;
@@ -46,6 +47,7 @@ VioOdometrySource::VioOdometrySource(const StereoInput& input) : impl_(std::make
   // the VIO's per-keyframe relative covariance (a Schur complement of the whole window, ~5 % of
   // its CPU at 800x450) would be computed for nothing.
   config.compute_keyframe_covariance = false;
+  config.tracker.smooth_sigma_px = settings.smooth_sigma_px;
   impl_->vio = std::make_unique<vio::StereoInertialOdometry>(config, sequence.cam0, sequence.cam1,
                                                              sequence.imu);
   for (const auto& f : sequence.StereoFrames()) impl_->frames[f.t_ns] = f;

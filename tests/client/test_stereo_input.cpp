@@ -75,8 +75,8 @@ TEST(StereoInput, PassesRectifiedSequencesThrough) {
 TEST(StereoInput, TheClientRunsOnARealEurocFolder) {
   const auto out = mapdelta::testing::FreshTempDir("mapdelta_client_real_euroc");
   const StereoInput input(ReadEurocSequence(kDir));
-  VioOdometrySource odometry(input);
   ClientConfig config;
+  VioOdometrySource odometry(input, config.vio);
   config.keyframes.max_interval_s = 0.01;  // every frame with a pose: the folder is 0.35 s long
   config.temporal_filter.alpha = 1;        // three keyframes: at most two neighbours agree
   PipelineInputs in;

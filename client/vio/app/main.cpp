@@ -76,6 +76,8 @@ bool ApplySet(const std::string& kv, mapdelta::vio::VioConfig* c, std::string* e
     c->analytic_reprojection = v != 0;
   else if (key == "motion_only")
     c->motion_only_non_keyframes = v != 0;
+  else if (key == "smooth_sigma")
+    c->tracker.smooth_sigma_px = v;
   else if (key == "min_zncc")
     c->tracker.min_zncc = v;
   else if (key == "grid_cols")
@@ -142,20 +144,20 @@ bool Parse(int argc, char** argv, Options* o) {
       .Flag("pipelined", &o->pipelined,
             "decode + track on a second thread, ahead of the estimator (same estimates, less "
             "wall time)")
-      .Repeated(
-          "set", &o->sets,
-          "override a VioConfig number: iterations, window, init_frames, init_span (s), "
-          "init_iterations, analytic (0/1), motion_only (0/1), max_features, klt_window, "
-          "klt_levels, min_distance, pixel_sigma, huber, parallax, right_other (0/1), "
-          "covariance (0/1), min_zncc, grid_cols, grid_rows, detect_retry, stereo_full_searches, "
-          "stereo_klt_levels, stereo_klt_iterations, back_check_levels, outlier (sigmas), "
-          "prediction_gate "
-          "(sigmas), sigma_ba "
-          "(m/s^2), sigma_bg (rad/s), init_bias_gate (sigmas), gyro_floor, accel_floor, "
-          "gyro_walk_floor, accel_walk_floor (IMU noise floors), max_time (s), "
-          "gauge_free_prior (0/1), init_pnp_points, init_gravity_error (relative), "
-          "init_velocity_rms (m/s)",
-          "KEY=VALUE")
+      .Repeated("set", &o->sets,
+                "override a VioConfig number: iterations, window, init_frames, init_span (s), "
+                "init_iterations, analytic (0/1), motion_only (0/1), max_features, klt_window, "
+                "klt_levels, min_distance, pixel_sigma, huber, parallax, right_other (0/1), "
+                "covariance (0/1), min_zncc, smooth_sigma (px; -1 sized by the image noise), "
+                "grid_cols, grid_rows, detect_retry, stereo_full_searches, "
+                "stereo_klt_levels, stereo_klt_iterations, back_check_levels, outlier (sigmas), "
+                "prediction_gate "
+                "(sigmas), sigma_ba "
+                "(m/s^2), sigma_bg (rad/s), init_bias_gate (sigmas), gyro_floor, accel_floor, "
+                "gyro_walk_floor, accel_walk_floor (IMU noise floors), max_time (s), "
+                "gauge_free_prior (0/1), init_pnp_points, init_gravity_error (relative), "
+                "init_velocity_rms (m/s)",
+                "KEY=VALUE")
       .Option("log-level", &o->log_level, "log level")
       .Choices("log-level", {"debug", "info", "warn", "error", "off"})
       .Require({"sequence", "out"})

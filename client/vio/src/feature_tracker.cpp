@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mapdelta/common/image_noise.hpp"
 #include "mapdelta/vio/row_zncc.hpp"
 
 namespace mapdelta::vio {
@@ -40,8 +41,23 @@ void FeatureTracker::Reset() {
   disparity_.clear();
 }
 
-std::vector<TrackedFeature> FeatureTracker::Track(const cv::Mat& left, const cv::Mat& right) {
+double FeatureTracker::SmoothingSigma(const cv::Mat& left) const {
+  if (config_.smooth_sigma_px >= 0) return config_.smooth_sigma_px;
+  if (left.type() != CV_8UC1) return 0.0;
+  const double noise = EstimateImageNoise(left.cols, left.rows, left.step[0], left.data);
+  if (noise < kSmoothingMinNoise) return 0.0;
+  return DenoiseSigmaFor(noise) * left.cols / kSmoothingReferenceWidth;
+}
+
+std::vector<TrackedFeature> FeatureTracker::Track(const cv::Mat& left_in, const cv::Mat& right_in) {
   stats_ = {};
+  cv::Mat left = left_in, right = right_in;
+  const double sigma = SmoothingSigma(left_in);
+  stats_.smooth_sigma_px = sigma;
+  if (sigma > 0) {
+    cv::GaussianBlur(left_in, left, cv::Size(), sigma);
+    cv::GaussianBlur(right_in, right, cv::Size(), sigma);
+  }
   const cv::Size window(config_.klt_window_px, config_.klt_window_px);
   // Padded copies (tryReuseInputImage = false), never views of the caller's images: the left
   // pyramid is kept as the next frame's previous one.

@@ -18,7 +18,7 @@ struct StereoConfig {
   int speckle_range = 2;          // disparity variation inside a speckle, pixels
   int pre_filter_cap = 63;
   double max_depth_m = 50.0;  // depths beyond this are dropped
-  // Gaussian smoothing of both images before matching (stereo_depth.hpp DenoiseSigmaFor):
+  // Gaussian smoothing of both images before matching (common image_noise.hpp DenoiseSigmaFor):
   // < 0 = sized from each keyframe's measured image noise (none on a clean camera), 0 = off,
   // > 0 = this sigma in pixels; either at reference_width, scaled with the image width.
   double denoise_sigma_px = -1.0;
@@ -147,7 +147,17 @@ struct UploadConfig {
   double depth_scale = 1000.0;
 };
 
+// The VIO (--odometry vio), what the client sets of its vio::VioConfig.
+struct VioSettings {
+  // Gaussian smoothing of both images before the front end's corners and tracks
+  // (vio::TrackerConfig::smooth_sigma_px): -1 = sized by each frame's measured noise as the
+  // stereo depth's denoise_sigma_px -1, from 8 grey levels of noise on (the big-noise
+  // simulator: 2 px); 0 = off; > 0 = this sigma in pixels.
+  double smooth_sigma_px = -1.0;
+};
+
 struct ClientConfig {
+  VioSettings vio;
   StereoConfig stereo;
   TemporalFilterConfig temporal_filter;
   KeyframeSelectionConfig keyframes;

@@ -4,6 +4,7 @@
 // Built only when mapdelta_vio is part of the build (library mapdelta_client_vio).
 #include <memory>
 
+#include "mapdelta/client/config.hpp"
 #include "mapdelta/client/odometry_source.hpp"
 #include "mapdelta/client/stereo_input.hpp"
 
@@ -13,7 +14,7 @@ class VioOdometrySource : public OdometrySource {
  public:
   // The input must outlive the source; the VIO runs on its rectified cameras, and `images`
   // given to At / PrepareFrame must be its rectified images (StereoInput::ReadLeft/ReadRight).
-  explicit VioOdometrySource(const StereoInput& input);
+  VioOdometrySource(const StereoInput& input, const VioSettings& settings);
   ~VioOdometrySource() override;
   // Runs the VIO on the stereo frame at t_ns (`images`, or read through the input when null);
   // nullopt until it is initialized or when t_ns is not a stereo frame of the sequence. After

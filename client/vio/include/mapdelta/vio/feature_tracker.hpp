@@ -28,8 +28,9 @@ struct TrackedFeature {
 
 struct TrackerStats {
   int tracked = 0, rejected_fb = 0, rejected_ransac = 0, detected = 0, stereo = 0;
-  int cells_searched = 0;   // grid cells where corners were looked for
-  int stereo_deferred = 0;  // unmatched tracks whose full stereo search waits (retry schedule)
+  int cells_searched = 0;      // grid cells where corners were looked for
+  int stereo_deferred = 0;     // unmatched tracks whose full stereo search waits (retry schedule)
+  double smooth_sigma_px = 0;  // Gaussian smoothing applied to this frame (0: none)
 };
 
 class FeatureTracker {
@@ -41,6 +42,8 @@ class FeatureTracker {
   void Reset();
 
  private:
+  // TrackerConfig::smooth_sigma_px for this frame (sized by its noise when -1).
+  double SmoothingSigma(const cv::Mat& left) const;
   void TrackTemporal(const cv::Mat& left);
   void Detect(const cv::Mat& left);
   void MatchStereo(const cv::Mat& left, const cv::Mat& right);
