@@ -72,6 +72,7 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->new_footprint_radius_m = 0.0;
     params->new_not_seen_free = false;
     params->removed_mask_radius_m = 0.0;
+    params->mask_min_keyframes = 0;
   } else if (rule == "confident") {
     params->observed.depth_sigma_per_m2 = 1.25e-3;
     params->observed.depth_sigma_factor = 3.0;
@@ -80,6 +81,7 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->new_footprint_radius_m = 1.6;
     params->new_not_seen_free = true;
     params->removed_mask_radius_m = 1.6;
+    params->mask_min_keyframes = 2;
   } else {
     throw Error(ErrorCode::kInvalidArgument,
                 "free-space rule '" + rule + "': expected paper or confident");
@@ -179,9 +181,12 @@ namespace {
 // Depth of keyframe i: from memory, or read from the folder on demand (bounded memory).
 using DepthSource = std::function<DepthImage(size_t index)>;
 
+// `support` (optional): per returned point, the keyframes that put a point in its voxel (each
+// keyframe's cloud is downsampled on the same grid first, so it adds at most one point there).
 PointCloud BuildGlobalCloudFrom(const KeyframeFolder& keyframes, const DepthSource& depth_of,
                                 double max_depth_m, double voxel_m, int threads,
-                                const ProgressFunction& progress) {
+                                const ProgressFunction& progress,
+                                std::vector<uint32_t>* support = nullptr) {
   if (!(max_depth_m > 0) || !(voxel_m > 0)) {
     throw Error(ErrorCode::kInvalidArgument, "global cloud: max depth and voxel size must be > 0");
   }
@@ -198,7 +203,7 @@ PointCloud BuildGlobalCloudFrom(const KeyframeFolder& keyframes, const DepthSour
   });
   PointCloud all;
   for (const auto& points : per_keyframe) all.insert(all.end(), points.begin(), points.end());
-  return VoxelDownsample(all, static_cast<float>(voxel_m));
+  return VoxelDownsample(all, static_cast<float>(voxel_m), support);
 }
 
 ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
@@ -215,6 +220,10 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
     throw Error(ErrorCode::kInvalidArgument,
                 "change detection: new_footprint_radius_m must be a distance >= 0 (0 = off)");
   }
+  if (params.mask_min_keyframes < 0) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "change detection: mask_min_keyframes must be >= 0 (0 = off)");
+  }
   if (!(params.removed_mask_radius_m >= 0 && std::isfinite(params.removed_mask_radius_m))) {
     throw Error(ErrorCode::kInvalidArgument,
                 "change detection: removed_mask_radius_m must be a distance >= 0 (0 = off)");
@@ -229,8 +238,9 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
   result.observed = ObservedArea(params.observed.resolution_m);
   // 1. Global cloud P_g (depth cut th_d) and the prior, both at cloud_voxel_m.
   report("global cloud", 0.0);
-  result.global = BuildGlobalCloudFrom(keyframes, depth_of, params.observed.max_depth_m,
-                                       params.cloud_voxel_m, params.threads, progress);
+  result.global =
+      BuildGlobalCloudFrom(keyframes, depth_of, params.observed.max_depth_m, params.cloud_voxel_m,
+                           params.threads, progress, &result.global_support);
   result.prior = VoxelDownsample(prior, static_cast<float>(params.cloud_voxel_m));
   MD_LOG(kInfo, "change detection: global cloud " << result.global.size() << " points, prior "
                                                   << result.prior.size() << " points");
@@ -270,7 +280,8 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
     masking.emplace();
     for (size_t i : MaskingPoints(result.global, result.prior, params.removed_mask_radius_m,
                                   params.new_footprint_radius_m, params.threads)) {
-      masking->push_back(result.global[i]);
+      if (result.global_support[i] >= static_cast<uint32_t>(params.mask_min_keyframes))
+        masking->push_back(result.global[i]);
     }
   }
   result.changes = ClassifyChanges(result.global, result.observed_prior, params.th_ch_m,

@@ -26,6 +26,10 @@ uint64_t PackKey(int64_t x, int64_t y, int64_t z) {
 }  // namespace
 
 PointCloud VoxelDownsample(const PointCloud& cloud, float leaf_m) {
+  return VoxelDownsample(cloud, leaf_m, nullptr);
+}
+
+PointCloud VoxelDownsample(const PointCloud& cloud, float leaf_m, std::vector<uint32_t>* counts) {
   if (!(leaf_m > 0.f) || !std::isfinite(leaf_m)) {
     throw Error(ErrorCode::kInvalidArgument, "voxel leaf size must be positive");
   }
@@ -46,6 +50,10 @@ PointCloud VoxelDownsample(const PointCloud& cloud, float leaf_m) {
   PointCloud out(voxels.size());
   for (size_t i = 0; i < voxels.size(); ++i)
     out[i] = (voxels[i].sum / voxels[i].count).cast<float>();
+  if (counts) {
+    counts->resize(voxels.size());
+    for (size_t i = 0; i < voxels.size(); ++i) (*counts)[i] = voxels[i].count;
+  }
   return out;
 }
 

@@ -20,7 +20,8 @@ enum Kind : uint8_t {
   kChanges = 3,
   kObserved = 4,
   kVoxelKeys = 5,
-  kPointBits = 6
+  kPointBits = 6,
+  kAggregateWithKeyframes = 7  // kAggregate plus each voxel's keyframe support (issue 21)
 };
 
 class Writer {
@@ -153,13 +154,18 @@ Bytes EncodeAggregate(const TileAggregate& aggregate) {
     w.Put(v.centroid.y());
     w.Put(v.centroid.z());
     w.Put(v.point_count);
+    w.Put(v.keyframes);
     w.PutIds(v.sessions);
   }
-  return Seal(kAggregate, w.buf());
+  return Seal(kAggregateWithKeyframes, w.buf());
 }
 
 TileAggregate DecodeAggregate(const Bytes& blob) {
-  const Bytes raw = Open(kAggregate, blob);
+  // Aggregates stored before the keyframe support (kind 2) read with keyframes 0: unknown.
+  constexpr size_t kKindOffset = 4;
+  const bool with_keyframes =
+      blob.size() > kKindOffset && blob[kKindOffset] == kAggregateWithKeyframes;
+  const Bytes raw = Open(with_keyframes ? kAggregateWithKeyframes : kAggregate, blob);
   Reader r(raw);
   const auto n = r.Get<uint64_t>();
   TileAggregate out;
@@ -169,6 +175,7 @@ TileAggregate DecodeAggregate(const Bytes& blob) {
     const float x = r.Get<float>(), y = r.Get<float>(), z = r.Get<float>();
     v.centroid = Point(x, y, z);
     v.point_count = r.Get<uint32_t>();
+    if (with_keyframes) v.keyframes = r.Get<uint32_t>();
     v.sessions = r.GetIds();
     out.emplace(key, std::move(v));
   }

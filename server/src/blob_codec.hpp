@@ -20,7 +20,10 @@ namespace mapdelta::server {
 // One voxel of a tile's aggregated cloud (voxel edge = aggregation voxel size).
 struct AggregateVoxel {
   Point centroid = Point::Zero();
-  uint32_t point_count = 0;       // points averaged into the centroid, over all sessions
+  uint32_t point_count = 0;  // points averaged into the centroid, over all sessions
+  // The most keyframes of one session with a point here (ChangeDetectionResult::global_support);
+  // 0 = unknown (aggregated before it was kept): then the voxel masks removals as before.
+  uint32_t keyframes = 0;
   std::vector<int64_t> sessions;  // sessions that put a point here (sorted, unique)
 };
 using VoxelKey = std::array<int32_t, 3>;

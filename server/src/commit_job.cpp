@@ -35,14 +35,37 @@ VoxelKey KeyOf(const Point& p, double voxel_m) {
           static_cast<int32_t>(std::floor(p.z() / voxel_m))};
 }
 
-// Adds one session's points (already voxel-filtered) to a tile's aggregate.
-void AddToAggregate(TileAggregate* agg, const PointCloud& points, int64_t session_id,
+// One tile's part of the session cloud, with each point's keyframe support.
+struct TilePoints {
+  PointCloud points;
+  std::vector<uint32_t> keyframes;
+};
+
+std::map<TileId, TilePoints> SplitByTile(const TileGrid& grid, const PointCloud& cloud,
+                                         const std::vector<uint32_t>& keyframes) {
+  std::map<TileId, TilePoints> out;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud[i].allFinite()) continue;  // as TileGrid::Split
+    TilePoints& tile = out[grid.TileOf(cloud[i])];
+    tile.points.push_back(cloud[i]);
+    tile.keyframes.push_back(keyframes[i]);
+  }
+  return out;
+}
+
+// Adds one session's points (already voxel-filtered) to a tile's aggregate. A voxel keeps the
+// most keyframes any one session put in it (when two of the session's points meet in one voxel,
+// after the correction or at a voxel boundary, the better supported one: adding would count
+// keyframes twice).
+void AddToAggregate(TileAggregate* agg, const TilePoints& tile, int64_t session_id,
                     double voxel_m) {
-  for (const Point& p : points) {
+  for (size_t i = 0; i < tile.points.size(); ++i) {
+    const Point& p = tile.points[i];
     AggregateVoxel& v = (*agg)[KeyOf(p, voxel_m)];
     v.centroid = (v.centroid * static_cast<float>(v.point_count) + p) /
                  static_cast<float>(v.point_count + 1);
     v.point_count += 1;
+    v.keyframes = std::max(v.keyframes, tile.keyframes[i]);
     if (std::find(v.sessions.begin(), v.sessions.end(), session_id) == v.sessions.end()) {
       v.sessions.insert(std::upper_bound(v.sessions.begin(), v.sessions.end(), session_id),
                         session_id);
@@ -108,11 +131,12 @@ Registration AlignToPrior(JobContext& ctx, const TileGrid& grid, const PointClou
 }
 
 // Step 4's tiles: where the session has points, or where it observed some prior point.
-std::map<TileId, PointCloud> TouchedTiles(JobContext& ctx, const TileGrid& grid,
+std::map<TileId, TilePoints> TouchedTiles(JobContext& ctx, const TileGrid& grid,
                                           const PointCloud& cloud,
+                                          const std::vector<uint32_t>& keyframes,
                                           std::optional<int64_t> prior_version,
                                           const SessionObserved& session_observed) {
-  std::map<TileId, PointCloud> by_tile = grid.Split(cloud);
+  std::map<TileId, TilePoints> by_tile = SplitByTile(grid, cloud, keyframes);
   const std::vector<Eigen::Vector3d>& camera_centres = session_observed.camera_centres;
   if (!prior_version || camera_centres.empty()) return by_tile;
   PointCloud centres;
@@ -153,11 +177,11 @@ struct Classified {
 
 // Step 6: the touched tiles and their aggregated neighbours as one work item each, classified
 // by this and any other worker (tile_work.hpp), published at once.
-Classified ClassifyTouchedTiles(JobContext& ctx, const std::map<TileId, PointCloud>& by_tile,
+Classified ClassifyTouchedTiles(JobContext& ctx, const std::map<TileId, TilePoints>& by_tile,
                                 int64_t prior_version, int64_t session_id,
                                 ObservedArea session_area) {
   std::set<TileId> to_classify_set;
-  for (const auto& [tile, points] : by_tile) {
+  for (const auto& [tile, unused] : by_tile) {
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy)
         to_classify_set.insert(TileId(tile.ix() + dx, tile.iy() + dy));
@@ -220,8 +244,8 @@ Json RunCommitJob(JobContext& ctx) {
   const auto t3 = std::chrono::steady_clock::now();
 
   // 4. Touched tiles: where the session has points, or observed some prior point.
-  const std::map<TileId, PointCloud> by_tile =
-      TouchedTiles(ctx, grid, cloud, prior_version, session_observed);
+  const std::map<TileId, TilePoints> by_tile = TouchedTiles(
+      ctx, grid, cloud, session_cloud.keyframe_support, prior_version, session_observed);
   // Last point at which a cancel request stops the job: from here on it writes, after every
   // earlier job (tiles aggregate sessions in commit order, however many workers run).
   ctx.CheckStop();
@@ -256,7 +280,7 @@ Json RunCommitJob(JobContext& ctx) {
   // resumed job writes it again). Every tile where the session observed a prior point is a
   // touched tile.
   std::vector<TileId> touched;
-  for (const auto& [tile, points] : by_tile) touched.push_back(tile);
+  for (const auto& [tile, unused] : by_tile) touched.push_back(tile);
   const int64_t tiles_covered =
       WriteSessionCoverage(ctx.storage, *session, session_observed.area, touched);
   const auto t4c = std::chrono::steady_clock::now();

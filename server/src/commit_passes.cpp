@@ -67,6 +67,7 @@ SessionCloud BuildSessionCloud(JobContext& ctx, const SessionRecord& session,
   const PipelineConfig& pc = ctx.config.pipeline;
   const std::string params = KeyframeCloudParams(pc);
   const int64_t chunk = pc.chunk_keyframes, chunks = NumChunks(session, chunk);
+  const auto session_voxel = static_cast<float>(pc.session_voxel_m);
   std::vector<PointCloud> parts(chunks);
   std::atomic<int64_t> recomputed{0};
   ChunkProgress progress(ctx, chunks, progress0, progress1, "session cloud");
@@ -79,7 +80,7 @@ SessionCloud BuildSessionCloud(JobContext& ctx, const SessionRecord& session,
             stale = true;
             return;
           }
-          const PointCloud pts = DecodePoints(k.cloud);
+          const PointCloud pts = VoxelDownsample(DecodePoints(k.cloud), session_voxel);
           parts[c].insert(parts[c].end(), pts.begin(), pts.end());
         });
     if (!stale) return progress.ChunkDone();
@@ -96,6 +97,7 @@ SessionCloud BuildSessionCloud(JobContext& ctx, const SessionRecord& session,
           } else {
             pts = DecodePoints(k.cloud);
           }
+          pts = VoxelDownsample(pts, session_voxel);
           parts[c].insert(parts[c].end(), pts.begin(), pts.end());
         });
     progress.ChunkDone();
@@ -106,7 +108,7 @@ SessionCloud BuildSessionCloud(JobContext& ctx, const SessionRecord& session,
   PointCloud all;
   all.reserve(total);
   for (const auto& p : parts) all.insert(all.end(), p.begin(), p.end());
-  out.cloud = VoxelDownsample(all, static_cast<float>(pc.session_voxel_m));
+  out.cloud = VoxelDownsample(all, session_voxel, &out.keyframe_support);
   out.recomputed = recomputed;
   return out;
 }

@@ -21,7 +21,10 @@ namespace mapdelta::server {
 ChangeDetectionParams PipelineDetectionParams(const PipelineConfig& pc);
 
 struct SessionCloud {
-  PointCloud cloud;        // all keyframes' clouds in seq order, voxel-filtered again
+  PointCloud cloud;  // all keyframes' clouds in seq order, voxel-filtered again
+  // Per point of `cloud`: the keyframes with a point in its voxel (each keyframe's cloud is
+  // filtered on the session voxel first, as mapdelta-detect's global cloud).
+  std::vector<uint32_t> keyframe_support;
   int64_t recomputed = 0;  // keyframes whose stored cloud was missing or stale
 };
 

@@ -6,6 +6,9 @@
 // masks the prior points next to it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include "mapdelta/common/change_detection.hpp"
 #include "mapdelta/common/error.hpp"
 #include "wall_scene.hpp"
@@ -17,6 +20,8 @@ constexpr float kCameraHeight = 12.f;
 constexpr float kGoneTop = 6.f;      // a 6 m high box over x in [-5, 1], |y| <= 3: gone now
 constexpr float kStandingTop = 5.f;  // a 5 m high box over x in [2, 4], |y| <= 1: still there
 constexpr float kGhostZ = 3.5f;      // a 1 x 1 m slab at this height inside the gone box
+constexpr float kStrayZ =
+    5.f;  // a stray 1 x 1 m slab 1 m under the gone box's top: "re-observes" it
 
 bool In(float x, float y, float x0, float x1, float half_width) {
   return x >= x0 && x <= x1 && std::abs(y) <= half_width;
@@ -45,8 +50,9 @@ PointCloud Prior() {
 }
 
 // Five keyframes 12 m up looking down, 0.5 m apart in x: the ground where the gone box stood,
-// the standing box's top and the ghost.
-KeyframeFolder DriveOver() {
+// the standing box's top and a 1 x 1 m slab over x in [-2.5, -1.5] at ghost_z, seen by the
+// first `ghost_keyframes` keyframes (the others see the ground through it).
+KeyframeFolder DriveOver(float ghost_z = kGhostZ, int ghost_keyframes = 5) {
   KeyframeFolder keyframes;
   keyframes.camera = testing::SmallCamera();
   const PinholeCamera& camera = keyframes.camera;
@@ -65,8 +71,8 @@ KeyframeFolder DriveOver() {
         float x = 0, y = 0;
         const float d_standing = at_height(kStandingTop, &x, &y);
         if (In(x, y, 2.f, 4.f, 1.f)) keyframe.depth.at(u, v) = d_standing;
-        const float d_ghost = at_height(kGhostZ, &x, &y);
-        if (In(x, y, -2.5f, -1.5f, 0.5f)) keyframe.depth.at(u, v) = d_ghost;
+        const float d_ghost = at_height(ghost_z, &x, &y);
+        if (k < ghost_keyframes && In(x, y, -2.5f, -1.5f, 0.5f)) keyframe.depth.at(u, v) = d_ghost;
       }
     }
     keyframes.keyframes.push_back(keyframe);
@@ -119,6 +125,44 @@ TEST(RemovedMasking, AGhostInsideAGoneBuildingMasksItOnlyUnderThePapersTest) {
   EXPECT_GT(reobserved.gone_box, all_mask.gone_box + 20);
   EXPECT_EQ(reobserved.low_sides, 0);
   EXPECT_EQ(reobserved.other, 0);  // nothing of the ground or the standing box
+}
+
+TEST(RemovedMasking, AStrayDepthSeenOnceMasksNothingUnderTheKeyframeSupport) {
+  // One keyframe's stray slab 1 m under the gone box's top lies within 1.6 m of its prior
+  // points, so the radius alone takes it for the box seen again and keeps the top over it.
+  const KeyframeFolder keyframes = DriveOver(kStrayZ, 1);
+  const PointCloud prior = Prior();
+  ChangeDetectionParams radius = Confident(1.6);
+  radius.mask_min_keyframes = 0;
+  const RemovedCounts radius_only =
+      Count(DetectChanges(keyframes, prior, radius).changes.removed_points);
+  EXPECT_EQ(radius_only.top_over_ghost, 0);
+
+  // The confident rule: a masking point needs points of two keyframes in its voxel, so the
+  // stray slab masks nothing.
+  ChangeDetectionParams supported = Confident(1.6);
+  EXPECT_EQ(supported.mask_min_keyframes, 2);
+  const ChangeDetectionResult result = DetectChanges(keyframes, prior, supported);
+  const RemovedCounts counts = Count(result.changes.removed_points);
+  EXPECT_GT(counts.top_over_ghost, 8);
+  EXPECT_GT(counts.gone_box, radius_only.gone_box + 10);
+  EXPECT_EQ(counts.low_sides, 0);  // the ground, seen by every keyframe, still masks
+  EXPECT_EQ(counts.other, 0);
+
+  // The support is the number of keyframes with a point in the voxel.
+  ASSERT_EQ(result.global_support.size(), result.global.size());
+  uint32_t stray_support = 0, ground_support = 0;
+  for (size_t i = 0; i < result.global.size(); ++i) {
+    const Point& p = result.global[i];
+    if (std::abs(p.z() - kStrayZ) < 0.5f && p.x() < 0.f)
+      stray_support = std::max(stray_support, result.global_support[i]);
+    if (p.z() < 0.5f && In(p.x(), p.y(), -1.f, 0.f, 0.5f))
+      ground_support = std::max(ground_support, result.global_support[i]);
+  }
+  EXPECT_EQ(stray_support, 1u);
+  EXPECT_EQ(ground_support, 5u);
+  supported.mask_min_keyframes = -1;
+  EXPECT_THROW(DetectChanges(keyframes, prior, supported), Error);
 }
 
 TEST(RemovedMasking, OnlyWithTheFreeEvidence) {

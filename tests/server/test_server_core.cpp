@@ -33,11 +33,12 @@ TEST(BlobCodec, RoundTripsAndRejectsCorruption) {
   const PointCloud cloud = {Point(1, 2, 3), Point(-4.5f, 0.25f, 1e6f)};
   EXPECT_EQ(DecodePoints(EncodePoints(cloud)), cloud);
   TileAggregate agg;
-  agg[{1, -2, 3}] = AggregateVoxel{Point(0.5f, 0.5f, 0.5f), 7, {3, 9}};
+  agg[{1, -2, 3}] = AggregateVoxel{Point(0.5f, 0.5f, 0.5f), 7, 4, {3, 9}};
   const TileAggregate back = DecodeAggregate(EncodeAggregate(agg));
   ASSERT_EQ(back.size(), 1u);
   EXPECT_EQ(back.begin()->first, (VoxelKey{1, -2, 3}));
   EXPECT_EQ(back.begin()->second.point_count, 7u);
+  EXPECT_EQ(back.begin()->second.keyframes, 4u);
   EXPECT_EQ(back.begin()->second.sessions, (std::vector<int64_t>{3, 9}));
   std::vector<ChangePoint> changes(1);
   changes[0].position = Point(1, 1, 1);

@@ -231,6 +231,35 @@ TEST(CommitFreeSpace, AGhostThatReobservesNoPriorSurfaceDoesNotMaskARemoval) {
   EXPECT_EQ(r.hidden, 0u);
 }
 
+// A 0.2 m slab 1 m under gone box A's top lies within 1.6 m of A's prior points, so it looks
+// like A's top seen again and masks the top above it. Under the confident rule a voxel masks
+// only when some session saw it in two keyframes (mask_min_keyframes, the session cloud's
+// keyframe support): the slab in one keyframe's depth (a stray match) masks nothing; the same
+// slab in every keyframe (something really there) still masks.
+TEST(CommitFreeSpace, AStrayInOneKeyframesDepthMasksNoRemoval) {
+  log::SetLevel(log::Level::kWarn);
+  const fs::path dir = FreshTempDir("mds_free_space_support");
+  const Box slab{{16, 12, 3.4}, {18, 13, 3.6}};
+  const auto removed_above_slab = [&](int64_t only_seq) {
+    const fs::path run_dir = dir / std::to_string(only_seq);
+    fs::create_directories(run_dir);
+    FreeSpaceServer server("confident", run_dir, true, Prior(), 3.2);
+    server.Commit("car", [&](int64_t seq, const SE3& T) {
+      BoxScene s = Real();
+      if (only_seq < 0 || seq == only_seq) s.boxes.push_back(slab);
+      return s.Render(TestCamera(), T, kMaxDepth);
+    });
+    return server.RemovedOnTopOfAAbove(slab);
+  };
+  const size_t one_keyframe = removed_above_slab(9);  // the keyframe at x = 16, facing the slab
+  const size_t every_keyframe = removed_above_slab(-1);
+  const size_t no_keyframe = removed_above_slab(1000);  // no slab
+  fs::remove_all(dir);
+  EXPECT_GT(no_keyframe, 5u);
+  EXPECT_GT(one_keyframe, 5u);
+  EXPECT_EQ(every_keyframe, 0u);
+}
+
 // The prior maps the ground only from y = 4 on; the cameras see the real ground down to
 // y = -10. The paper's rule reports that unmapped ground as new; the confident rule keeps new
 // points to the prior's footprint (1.6 m from a prior point, horizontally) and reports none.

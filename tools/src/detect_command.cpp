@@ -57,7 +57,7 @@ struct DetectOptions {
 bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out, DetectOptions* o) {
   ChangeDetectionParams& params = o->params;
   double sigma_per_m2 = 0, footprint_radius = 0, mask_radius = 0;
-  int stop_at_prior = 0, min_free_keyframes = 0, new_not_seen_free = 0;
+  int stop_at_prior = 0, min_free_keyframes = 0, new_not_seen_free = 0, mask_min_keyframes = 0;
   cli::Parser cli("mapdelta-detect", kDetectDescription);
   cli.Option("prior", &o->prior_path, "prior map cloud (.pcd/.ply/.las)", "CLOUD")
       .Option("keyframes", &o->keyframe_dir, "keyframe folder (camera.yaml, poses.txt, depth/)",
@@ -91,6 +91,9 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
               "ablation: override how near a prior point a global point must be to mask the "
               "removals within th_ch of it [m] (0 = every global point masks)",
               "M")
+      .Option("mask-min-keyframes", &mask_min_keyframes,
+              "ablation: a global point masks removals only when this many keyframes put a "
+              "point in its voxel (0 = off)")
       .Option("footprint-radius", &footprint_radius,
               "ablation: override how far (horizontally) from the prior a new point may lie "
               "[m] (0 = anywhere)",
@@ -126,6 +129,7 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
     params.removed_min_free_keyframes = min_free_keyframes;
   if (cli.Given("footprint-radius")) params.new_footprint_radius_m = footprint_radius;
   if (cli.Given("removed-mask-radius")) params.removed_mask_radius_m = mask_radius;
+  if (cli.Given("mask-min-keyframes")) params.mask_min_keyframes = mask_min_keyframes;
   return true;
 }
 
@@ -185,6 +189,7 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
                             {"new_footprint_radius_m", params.new_footprint_radius_m},
                             {"new_not_seen_free", params.new_not_seen_free},
                             {"removed_mask_radius_m", params.removed_mask_radius_m},
+                            {"mask_min_keyframes", params.mask_min_keyframes},
                             {"rho_o_m", params.observed.resolution_m},
                             {"cloud_voxel_m", params.cloud_voxel_m},
                             {"align", align},

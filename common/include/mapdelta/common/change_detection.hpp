@@ -3,6 +3,7 @@
 // from keyframes, optionally align it to the prior P_p, build the observed area A_obs, keep the
 // observed prior cloud P_p^obs (Alg. 1) and classify new / removed points (Alg. 2).
 // Parameter names follow the paper: th_ch, th_d, th_f, rho_o.
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -37,6 +38,10 @@ struct ChangeDetectionParams {
   // new object or of depth noise says nothing about the prior around it, yet masked a removed
   // building 3.2 m around it.
   double removed_mask_radius_m = 0.0;
+  // With the mask radius: a global point masks only when at least this many keyframes put a
+  // point in its voxel (ChangeDetectionResult::global_support): a surface seen again is seen
+  // from several places, a stray depth once. 0 or 1 = off.
+  int mask_min_keyframes = 0;
   // Threads for every step of DetectChanges, the observed area's rays included (it overrides
   // observed.threads there); 0 = every hardware thread (parallel.hpp).
   int threads = 0;
@@ -53,7 +58,10 @@ struct ChangeDetectionParams {
 //                 only where the session's own rays did not pass through more than end.
 //                 Removals are masked only by global points within 1.6 m (two cloud voxels)
 //                 of the prior (removed_mask_radius_m; measured on six paper cells: R_rm
-//                 +0.02-0.12 at the same or better P_rm, docs/results.md).
+//                 +0.02-0.12 at the same or better P_rm, docs/results.md), and only when two
+//                 keyframes put a point in their voxel (mask_min_keyframes; big-noise paper
+//                 cells: R_rm +0.03-0.09 at P_rm -0.02-0.05, but sparse dark depth loses
+//                 more precision: S1_dark big P_rm 0.81 -> 0.67, docs/results.md).
 //                 Rays without depth are not stopped at prior surfaces: measured on paper
 //                 S1_01 (docs/results.md), that part lowered R_rm by 0.036 and added no
 //                 precision once the voxel test was on (free_rays_stop_at_prior stays an option).
@@ -110,6 +118,8 @@ using ProgressFunction = std::function<void(const std::string& stage, double fra
 
 struct ChangeDetectionResult {
   PointCloud global;  // P_g in the prior's frame (after alignment)
+  std::vector<uint32_t>
+      global_support;  // per point of `global`: keyframes with a point in its voxel
   SE3 T_prior_global = SE3::Identity();
   ObservedArea observed;      // A_obs built with the aligned keyframe poses
   PointCloud prior;           // P_p, downsampled to cloud_voxel_m
