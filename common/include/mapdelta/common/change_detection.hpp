@@ -59,9 +59,9 @@ struct ChangeDetectionParams {
 //                 Removals are masked only by global points within 1.6 m (two cloud voxels)
 //                 of the prior (removed_mask_radius_m; measured on six paper cells: R_rm
 //                 +0.02-0.12 at the same or better P_rm, docs/results.md), and only when two
-//                 keyframes put a point in their voxel (mask_min_keyframes; big-noise paper
-//                 cells: R_rm +0.03-0.09 at P_rm -0.02-0.05, but sparse dark depth loses
-//                 more precision: S1_dark big P_rm 0.81 -> 0.67, docs/results.md).
+//                 keyframes put a point in their voxel (mask_min_keyframes; on seven paper
+//                 cells R_rm +0.00-0.09, mean +0.04, for P_rm -0.02-0.14, mean -0.06; sparse
+//                 dark depth loses most: S1_dark big P_rm 0.81 -> 0.67, docs/results.md).
 //                 Rays without depth are not stopped at prior surfaces: measured on paper
 //                 S1_01 (docs/results.md), that part lowered R_rm by 0.036 and added no
 //                 precision once the voxel test was on (free_rays_stop_at_prior stays an option).
@@ -118,8 +118,8 @@ using ProgressFunction = std::function<void(const std::string& stage, double fra
 
 struct ChangeDetectionResult {
   PointCloud global;  // P_g in the prior's frame (after alignment)
-  std::vector<uint32_t>
-      global_support;  // per point of `global`: keyframes with a point in its voxel
+  // Per point of `global`: the keyframes that put a point in its voxel.
+  std::vector<uint32_t> global_support;
   SE3 T_prior_global = SE3::Identity();
   ObservedArea observed;      // A_obs built with the aligned keyframe poses
   PointCloud prior;           // P_p, downsampled to cloud_voxel_m
