@@ -35,6 +35,7 @@ ConfigSchema Schema(ServerConfig& c) {
       .Field("pipeline.free_space_depth_m", &q.free_space_depth_m, 0, 65.0)
       .Field("pipeline.free_ray_bound_px", &q.free_ray_bound_px, 0, 4096)
       .Field("pipeline.free_space", &q.free_space, {"paper", "confident"})
+      .Field("pipeline.mask_min_keyframes", &q.mask_min_keyframes, 0, 100)
       .Field("pipeline.session_voxel_m", &q.session_voxel_m, 0.05, 5)
       .Field("pipeline.octree_resolution_m", &q.octree_resolution_m, 0.05, 5)
       .Field("pipeline.pixel_stride", &q.pixel_stride, 1, 16)

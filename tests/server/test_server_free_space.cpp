@@ -66,7 +66,8 @@ struct Removed {
 class FreeSpaceServer {
  public:
   FreeSpaceServer(const std::string& rule, const fs::path& dir, bool voxel_consensus = true,
-                  const BoxScene& prior_scene = Prior(), double th_ch_m = 2.4) {
+                  const BoxScene& prior_scene = Prior(), double th_ch_m = 2.4,
+                  int mask_min_keyframes = 2) {
     ServerConfig c;
     c.storage.database = (dir / (rule + std::to_string(voxel_consensus) + ".db")).string();
     c.storage.tile_size_m = 20;
@@ -78,6 +79,7 @@ class FreeSpaceServer {
     c.pipeline.free_space = rule;
     c.classify.th_ch_m = th_ch_m;
     c.classify.voxel_consensus = voxel_consensus;
+    c.pipeline.mask_min_keyframes = mask_min_keyframes;
     service_ = std::make_unique<MapService>(c, OpenSqliteStorage(c.storage.database));
     const std::string prior = (dir / "prior.pcd").string();
     WriteCloud(prior, prior_scene.Sample(0.4));
@@ -233,17 +235,18 @@ TEST(CommitFreeSpace, AGhostThatReobservesNoPriorSurfaceDoesNotMaskARemoval) {
 
 // A 0.2 m slab 1 m under gone box A's top lies within 1.6 m of A's prior points, so it looks
 // like A's top seen again and masks the top above it. Under the confident rule a voxel masks
-// only when some session saw it in two keyframes (mask_min_keyframes, the session cloud's
-// keyframe support): the slab in one keyframe's depth (a stray match) masks nothing; the same
-// slab in every keyframe (something really there) still masks.
+// only when some session saw it in two keyframes (pipeline.mask_min_keyframes, the session
+// cloud's keyframe support): the slab in one keyframe's depth (a stray match) masks nothing; the
+// same slab in every keyframe (something really there) still masks.
 TEST(CommitFreeSpace, AStrayInOneKeyframesDepthMasksNoRemoval) {
   log::SetLevel(log::Level::kWarn);
   const fs::path dir = FreshTempDir("mds_free_space_support");
   const Box slab{{16, 12, 3.4}, {18, 13, 3.6}};
-  const auto removed_above_slab = [&](int64_t only_seq) {
-    const fs::path run_dir = dir / std::to_string(only_seq);
+  const auto removed_above_slab = [&](int64_t only_seq, int mask_min_keyframes = 2) {
+    const fs::path run_dir =
+        dir / (std::to_string(only_seq) + "-" + std::to_string(mask_min_keyframes));
     fs::create_directories(run_dir);
-    FreeSpaceServer server("confident", run_dir, true, Prior(), 3.2);
+    FreeSpaceServer server("confident", run_dir, true, Prior(), 3.2, mask_min_keyframes);
     server.Commit("car", [&](int64_t seq, const SE3& T) {
       BoxScene s = Real();
       if (only_seq < 0 || seq == only_seq) s.boxes.push_back(slab);
@@ -254,8 +257,11 @@ TEST(CommitFreeSpace, AStrayInOneKeyframesDepthMasksNoRemoval) {
   const size_t one_keyframe = removed_above_slab(9);  // the keyframe at x = 16, facing the slab
   const size_t every_keyframe = removed_above_slab(-1);
   const size_t no_keyframe = removed_above_slab(1000);  // no slab
+  // pipeline.mask_min_keyframes 0: the radius alone, and the stray slab masks.
+  const size_t one_keyframe_radius_only = removed_above_slab(9, 0);
   fs::remove_all(dir);
   EXPECT_GT(no_keyframe, 5u);
+  EXPECT_EQ(one_keyframe_radius_only, 0u);
   EXPECT_GT(one_keyframe, 5u);
   EXPECT_EQ(every_keyframe, 0u);
 }
