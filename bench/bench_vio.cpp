@@ -1,7 +1,9 @@
 // bench_vio: the stereo-inertial odometry (client/vio) on a prefix of an EuRoC-layout sequence
 // (the simulator's, e.g. paper preset 800x450 at 30 Hz, or a real EuRoC folder), the current
-// configuration beside session 4's (200 features, full window solves on every frame, gauge in
-// the prior) and session 1's (that plus autodiff reprojection Jacobians).
+// configuration beside the same without the noise smoothing (tracker.smooth_sigma_px 0: on a
+// noisy sequence, what the smoothing costs and buys), session 4's (200 features, full window
+// solves on every frame, gauge in the prior) and session 1's (that plus autodiff reprojection
+// Jacobians).
 //
 // Per configuration, on one thread (image decoding excluded): the front end (TrackFrame:
 // rectification, KLT, detection, stereo) and the estimator (AddTrackedFrame) timed apart, wall
@@ -183,6 +185,11 @@ int main(int argc, char** argv) {
                 seconds, 1e3 / rate);
     std::vector<Row> rows;
     rows.push_back(Run("current", seq, mapdelta::vio::VioConfig{}, seconds));
+    // The same without the smoothing of noisy frames: identical to "current" on a sequence
+    // whose measured noise is below kSmoothingMinNoise (e.g. real EuRoC, the small-noise preset).
+    mapdelta::vio::VioConfig unsmoothed;
+    unsmoothed.tracker.smooth_sigma_px = 0.0;
+    rows.push_back(Run("unsmoothed", seq, unsmoothed, seconds));
     // Session 4's configuration: 200 features, a full window solve on every frame, the gauge
     // in the marginalization prior.
     mapdelta::vio::VioConfig session4;
@@ -202,6 +209,9 @@ int main(int argc, char** argv) {
     std::printf(
         "(per frame; rt = camera period / (front end + estimator) on one thread;\n"
         " pose_s = time of the first pose after the first frame)\n");
+    std::printf("smoothing: front end %.2fx the unsmoothed one's thread CPU, %.2fx its wall\n",
+                rows[0].front_cpu_ms / std::max(1e-9, rows[1].front_cpu_ms),
+                rows[0].front_wall_ms / std::max(1e-9, rows[1].front_wall_ms));
     std::printf("%-10s %9s %9s %9s %9s %10s\n", "config", "features", "tracked", "track_len",
                 "stereo", "landmarks");
     for (const auto& r : rows) PrintQuality(r);
