@@ -73,6 +73,7 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->new_not_seen_free = false;
     params->removed_mask_radius_m = 0.0;
     params->mask_min_keyframes = 0;
+    params->mask_weak_radius_m = 0.0;
   } else if (rule == "confident") {
     params->observed.depth_sigma_per_m2 = 1.25e-3;
     params->observed.depth_sigma_factor = 3.0;
@@ -82,6 +83,7 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->new_not_seen_free = true;
     params->removed_mask_radius_m = 1.6;
     params->mask_min_keyframes = 2;
+    params->mask_weak_radius_m = 0.5;
   } else {
     throw Error(ErrorCode::kInvalidArgument,
                 "free-space rule '" + rule + "': expected paper or confident");
@@ -136,23 +138,45 @@ PointCloud WithinPriorFootprint(const PointCloud& points, const PointCloud& prio
 }
 
 std::vector<size_t> MaskingPoints(const PointCloud& global, const PointCloud& prior,
-                                  double reobserve_radius_m, double footprint_radius_m,
-                                  int threads) {
+                                  double reobserve_radius_m, double footprint_radius_m, int threads,
+                                  const MaskingSupport& support) {
   if (!(reobserve_radius_m > 0 && std::isfinite(reobserve_radius_m)) ||
-      !(footprint_radius_m >= 0 && std::isfinite(footprint_radius_m))) {
+      !(footprint_radius_m >= 0 && std::isfinite(footprint_radius_m)) ||
+      !(support.weak_radius_m >= 0 && std::isfinite(support.weak_radius_m))) {
     throw Error(ErrorCode::kInvalidArgument,
-                "masking points: the re-observation radius must be > 0, the footprint's >= 0");
+                "masking points: the re-observation radius must be > 0, the footprint's and the "
+                "weak support's >= 0");
   }
+  if (support.keyframes && support.keyframes->size() != global.size()) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "masking points: " + std::to_string(support.keyframes->size()) +
+                    " support counts for " + std::to_string(global.size()) + " points");
+  }
+  const auto min_keyframes = static_cast<uint32_t>(std::max(support.min_keyframes, 0));
+  const auto weak = [&](size_t i) {
+    if (!support.keyframes) return false;
+    const uint32_t keyframes = (*support.keyframes)[i];
+    return keyframes != 0 && keyframes < min_keyframes;
+  };
   std::vector<char> masks(global.size(), 1);
-  if (!prior.empty()) {
+  if (prior.empty()) {
+    for (size_t i = 0; i < global.size(); ++i) masks[i] = !weak(i);
+  } else {
     const std::vector<char> in_footprint =
         footprint_radius_m > 0 ? InPriorFootprint(global, prior, footprint_radius_m, threads)
                                : std::vector<char>(global.size(), 1);
     const NeighborIndex prior_index(prior);
     const auto radius = static_cast<float>(reobserve_radius_m);
+    const auto weak_radius = static_cast<float>(support.weak_radius_m);
     ParallelFor(
         global.size(), threads,
-        [&](size_t i) { masks[i] = !in_footprint[i] || prior_index.AnyWithin(global[i], radius); },
+        [&](size_t i) {
+          if (weak(i)) {
+            masks[i] = weak_radius > 0 && prior_index.AnyWithin(global[i], weak_radius);
+          } else {
+            masks[i] = !in_footprint[i] || prior_index.AnyWithin(global[i], radius);
+          }
+        },
         kPointGrain);
   }
   std::vector<size_t> out;
@@ -224,6 +248,10 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
     throw Error(ErrorCode::kInvalidArgument,
                 "change detection: mask_min_keyframes must be >= 0 (0 = off)");
   }
+  if (!(params.mask_weak_radius_m >= 0 && std::isfinite(params.mask_weak_radius_m))) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "change detection: mask_weak_radius_m must be a distance >= 0 (0 = off)");
+  }
   if (!(params.removed_mask_radius_m >= 0 && std::isfinite(params.removed_mask_radius_m))) {
     throw Error(ErrorCode::kInvalidArgument,
                 "change detection: removed_mask_radius_m must be a distance >= 0 (0 = off)");
@@ -278,10 +306,11 @@ ChangeDetectionResult DetectChangesFrom(const KeyframeFolder& keyframes,
   std::optional<PointCloud> masking;
   if (params.removed_min_free_keyframes > 0 && params.removed_mask_radius_m > 0) {
     masking.emplace();
+    const MaskingSupport support{&result.global_support, params.mask_min_keyframes,
+                                 params.mask_weak_radius_m};
     for (size_t i : MaskingPoints(result.global, result.prior, params.removed_mask_radius_m,
-                                  params.new_footprint_radius_m, params.threads)) {
-      if (result.global_support[i] >= static_cast<uint32_t>(params.mask_min_keyframes))
-        masking->push_back(result.global[i]);
+                                  params.new_footprint_radius_m, params.threads, support)) {
+      masking->push_back(result.global[i]);
     }
   }
   result.changes = ClassifyChanges(result.global, result.observed_prior, params.th_ch_m,

@@ -54,7 +54,10 @@ ChangeDetectionParams PipelineDetectionParams(const PipelineConfig& pc) {
   // run on their caller's thread alone (common/parallel.hpp).
   params.threads = op.threads = pc.threads;
   ApplyFreeSpaceRule(pc.free_space, &params);
-  if (pc.free_space == "confident") params.mask_min_keyframes = pc.mask_min_keyframes;
+  if (pc.free_space == "confident") {
+    params.mask_min_keyframes = pc.mask_min_keyframes;
+    params.mask_weak_radius_m = pc.mask_weak_radius_m;
+  }
   if (params.free_rays_stop_at_prior) {
     throw Error(ErrorCode::kInvalidArgument, "pipeline.free_space '" + pc.free_space +
                                                  "': stopping rays at the prior's surfaces is "

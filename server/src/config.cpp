@@ -36,6 +36,7 @@ ConfigSchema Schema(ServerConfig& c) {
       .Field("pipeline.free_ray_bound_px", &q.free_ray_bound_px, 0, 4096)
       .Field("pipeline.free_space", &q.free_space, {"paper", "confident"})
       .Field("pipeline.mask_min_keyframes", &q.mask_min_keyframes, 0, 100)
+      .Field("pipeline.mask_weak_radius_m", &q.mask_weak_radius_m, 0, 5)
       .Field("pipeline.session_voxel_m", &q.session_voxel_m, 0.05, 5)
       .Field("pipeline.octree_resolution_m", &q.octree_resolution_m, 0.05, 5)
       .Field("pipeline.pixel_stride", &q.pixel_stride, 1, 16)

@@ -144,20 +144,22 @@ std::set<int64_t> SessionsNear(const std::vector<const AggregateVoxel*>& voxels,
 
 // Under a mask radius (ChangeDetectionParams::removed_mask_radius_m), the voxels that may mask a
 // removal (Alg. 2: those within th_ch of it) and their centroids: those that re-observe a prior
-// surface or lie outside the prior's footprint (MaskingPoints), and that some session saw in
-// mask_min_keyframes keyframes (voxels aggregated before that was kept, keyframes 0, mask).
+// surface or lie outside the prior's footprint, and that some session saw in mask_min_keyframes
+// keyframes or that lie within mask_weak_radius_m of the prior (MaskingPoints; voxels aggregated
+// before the count was kept have keyframes 0 and mask as before).
 struct MaskingVoxels {
   std::vector<const AggregateVoxel*> voxels;
   PointCloud centroids;
 };
 
 MaskingVoxels MaskingVoxelsOf(const Neighbourhood& n, const ChangeDetectionParams& detection) {
+  std::vector<uint32_t> keyframes(n.voxels.size());
+  for (size_t i = 0; i < n.voxels.size(); ++i) keyframes[i] = n.voxels[i]->keyframes;
+  const MaskingSupport support{&keyframes, detection.mask_min_keyframes,
+                               detection.mask_weak_radius_m};
   MaskingVoxels out;
-  const auto min_keyframes = static_cast<uint32_t>(std::max(detection.mask_min_keyframes, 0));
   for (size_t i : MaskingPoints(n.global, n.prior, detection.removed_mask_radius_m,
-                                detection.new_footprint_radius_m, detection.threads)) {
-    const uint32_t keyframes = n.voxels[i]->keyframes;
-    if (keyframes != 0 && keyframes < min_keyframes) continue;
+                                detection.new_footprint_radius_m, detection.threads, support)) {
     out.voxels.push_back(n.voxels[i]);
     out.centroids.push_back(n.global[i]);
   }

@@ -3,7 +3,9 @@
 // confident rule only global points that re-observe the prior (within 1.6 m of a prior point)
 // do. A ghost in the depth (noise, or a van parked for that drive) inside a building that is
 // gone no longer hides the building's prior points 3.2 m around it; the ground seen again still
-// masks the prior points next to it.
+// masks the prior points next to it. Of those, a point one keyframe saw masks only on the prior
+// surface (within 0.5 m: mask_min_keyframes, mask_weak_radius_m): a stray inside a gone building
+// no, a standing roof that sparse depth saw once yes.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -165,6 +167,73 @@ TEST(RemovedMasking, AStrayDepthSeenOnceMasksNothingUnderTheKeyframeSupport) {
   EXPECT_THROW(DetectChanges(keyframes, prior, supported), Error);
 }
 
+// A 4 x 4 m roof 5 m high over |x|, |y| <= 2 that is still there, and the ground around it
+// (prior points every 0.2 m), seen by eight keyframes 12 m up over x in [-1, 0.75]; only the
+// first has depth on the roof, the others none there (sparse depth, as in the dark scene), so
+// their rays without depth pass through it: seen free by 3 keyframes net of the one hit.
+constexpr float kRoofTop = 5.f;
+
+PointCloud RoofPrior() {
+  PointCloud prior;
+  for (float x = -8.f; x <= 8.f + 1e-4f; x += 0.2f) {
+    for (float y = -8.f; y <= 8.f + 1e-4f; y += 0.2f) {
+      const bool roof = In(x, y, -2.f, 2.f, 2.f);
+      prior.emplace_back(x, y, roof ? kRoofTop : 0.f);
+    }
+  }
+  return prior;
+}
+
+KeyframeFolder RoofSeenOnce() {
+  KeyframeFolder keyframes;
+  keyframes.camera = testing::SmallCamera();
+  const PinholeCamera& camera = keyframes.camera;
+  for (int k = 0; k < 8; ++k) {
+    const float cx = -1.f + 0.25f * k;
+    Keyframe keyframe =
+        testing::DownwardKeyframe(camera, k + 1, Eigen::Vector3d(cx, 0, kCameraHeight));
+    const float d = kCameraHeight - kRoofTop;
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        const float x = cx + d * static_cast<float>((u - camera.cx) / camera.fx);
+        const float y = -d * static_cast<float>((v - camera.cy) / camera.fy);
+        if (In(x, y, -2.f, 2.f, 2.f)) keyframe.depth.at(u, v) = k == 0 ? d : 0.f;
+      }
+    }
+    keyframes.keyframes.push_back(keyframe);
+  }
+  return keyframes;
+}
+
+int RoofPoints(const PointCloud& points) {
+  return static_cast<int>(std::count_if(points.begin(), points.end(),
+                                        [](const Point& p) { return p.z() > kRoofTop - 0.1f; }));
+}
+
+TEST(RemovedMasking, ASurfaceSeenOnceStillMasksThePriorPointsItLiesOn) {
+  const KeyframeFolder keyframes = RoofSeenOnce();
+  const PointCloud prior = RoofPrior();
+
+  // The keyframe support alone: the roof's points, one keyframe's, mask nothing, and the seven
+  // keyframes whose rays crossed it report it removed.
+  ChangeDetectionParams support_only = Confident(1.6);
+  support_only.mask_weak_radius_m = 0.0;
+  const ChangeDetectionResult unmasked = DetectChanges(keyframes, prior, support_only);
+  EXPECT_GT(RoofPoints(unmasked.changes.removed_points), 50);
+
+  // The confident rule: a point seen once still masks within 0.5 m of a prior point, where it
+  // lies on the surface it re-observes.
+  const ChangeDetectionParams confident = Confident(1.6);
+  EXPECT_EQ(confident.mask_weak_radius_m, 0.5);
+  const ChangeDetectionResult masked = DetectChanges(keyframes, prior, confident);
+  EXPECT_EQ(RoofPoints(masked.changes.removed_points), 0);
+  EXPECT_GT(RoofPoints(masked.global), 50);
+
+  ChangeDetectionParams negative = confident;
+  negative.mask_weak_radius_m = -0.5;
+  EXPECT_THROW(DetectChanges(keyframes, prior, negative), Error);
+}
+
 TEST(RemovedMasking, OnlyWithTheFreeEvidence) {
   const KeyframeFolder keyframes = DriveOver();
   const PointCloud prior = Prior();
@@ -183,11 +252,25 @@ TEST(RemovedMasking, MaskingPointsAreThoseNearThePriorOrOutsideItsFootprint) {
   EXPECT_EQ(MaskingPoints(global, prior, 0.8, 0.0, 1), (std::vector<size_t>{0, 2}));
   EXPECT_EQ(MaskingPoints(global, {}, 0.8, 1.6, 1).size(), global.size());
   EXPECT_THROW(MaskingPoints(global, prior, 0.0, 1.6, 1), Error);
+
+  // Under the keyframe support: points seen by fewer than 2 keyframes mask only within the weak
+  // radius (0.5 m from the prior: yes; 0.7 m: no); 0 = support unknown, masks as before.
+  const std::vector<uint32_t> once = {1, 5, 1, 1, 1}, unknown(global.size(), 0);
+  EXPECT_EQ(MaskingPoints(global, prior, 0.8, 1.6, 1, {&once, 2, 0.6}), (std::vector<size_t>{0}));
+  EXPECT_TRUE(MaskingPoints(global, prior, 0.8, 1.6, 1, {&once, 2, 0.0}).empty());
+  EXPECT_EQ(MaskingPoints(global, prior, 0.8, 1.6, 1, {&once, 1, 0.0}),
+            (std::vector<size_t>{0, 2, 4}));
+  EXPECT_EQ(MaskingPoints(global, prior, 0.8, 1.6, 1, {&unknown, 2, 0.0}),
+            (std::vector<size_t>{0, 2, 4}));
+  const std::vector<uint32_t> too_few = {1, 5};
+  EXPECT_THROW(MaskingPoints(global, prior, 0.8, 1.6, 1, {&too_few, 2, 0.6}), Error);
+  EXPECT_THROW(MaskingPoints(global, prior, 0.8, 1.6, 1, {&once, 2, -1.0}), Error);
   ChangeDetectionParams confident, paper;
   ApplyFreeSpaceRule("confident", &confident);
   ApplyFreeSpaceRule("paper", &paper);
   EXPECT_EQ(confident.removed_mask_radius_m, 1.6);
   EXPECT_EQ(paper.removed_mask_radius_m, 0.0);
+  EXPECT_EQ(paper.mask_weak_radius_m, 0.0);
 }
 
 }  // namespace

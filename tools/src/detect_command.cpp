@@ -56,7 +56,7 @@ struct DetectOptions {
 // applied first and the ablation options then override single parts of it.
 bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out, DetectOptions* o) {
   ChangeDetectionParams& params = o->params;
-  double sigma_per_m2 = 0, footprint_radius = 0, mask_radius = 0;
+  double sigma_per_m2 = 0, footprint_radius = 0, mask_radius = 0, mask_weak_radius = 0;
   int stop_at_prior = 0, min_free_keyframes = 0, new_not_seen_free = 0, mask_min_keyframes = 0;
   cli::Parser cli("mapdelta-detect", kDetectDescription);
   cli.Option("prior", &o->prior_path, "prior map cloud (.pcd/.ply/.las)", "CLOUD")
@@ -94,6 +94,10 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
       .Option("mask-min-keyframes", &mask_min_keyframes,
               "ablation: a global point masks removals only when this many keyframes put a "
               "point in its voxel (0 = off)")
+      .Option("mask-weak-radius", &mask_weak_radius,
+              "ablation: a global point under --mask-min-keyframes still masks within this "
+              "distance of a prior point [m] (0 = never)",
+              "M")
       .Option("footprint-radius", &footprint_radius,
               "ablation: override how far (horizontally) from the prior a new point may lie "
               "[m] (0 = anywhere)",
@@ -130,6 +134,7 @@ bool ParseDetectOptions(const std::vector<std::string>& args, std::ostream& out,
   if (cli.Given("footprint-radius")) params.new_footprint_radius_m = footprint_radius;
   if (cli.Given("removed-mask-radius")) params.removed_mask_radius_m = mask_radius;
   if (cli.Given("mask-min-keyframes")) params.mask_min_keyframes = mask_min_keyframes;
+  if (cli.Given("mask-weak-radius")) params.mask_weak_radius_m = mask_weak_radius;
   return true;
 }
 
@@ -190,6 +195,7 @@ int RunDetect(const std::vector<std::string>& args, std::ostream& out) {
                             {"new_not_seen_free", params.new_not_seen_free},
                             {"removed_mask_radius_m", params.removed_mask_radius_m},
                             {"mask_min_keyframes", params.mask_min_keyframes},
+                            {"mask_weak_radius_m", params.mask_weak_radius_m},
                             {"rho_o_m", params.observed.resolution_m},
                             {"cloud_voxel_m", params.cloud_voxel_m},
                             {"align", align},

@@ -42,6 +42,13 @@ struct ChangeDetectionParams {
   // point in its voxel (ChangeDetectionResult::global_support): a surface seen again is seen
   // from several places, a stray depth once. 0 or 1 = off.
   int mask_min_keyframes = 0;
+  // With mask_min_keyframes: a point with less support still masks when it lies within this
+  // distance of a prior point (0 = never): on the prior surface, one keyframe's point is that
+  // surface seen again (sparse depth sees a standing wall once), where a stray in a gone
+  // building's volume lies further in. Measured on eight paper cells (docs/results.md, session
+  // 26) against support alone: R_rm 0.916 -> 0.912, P_rm 0.867 -> 0.918 (S1_dark big 0.668 ->
+  // 0.765); 0.3 m and 0.8 m each did worse on one side.
+  double mask_weak_radius_m = 0.0;
   // Threads for every step of DetectChanges, the observed area's rays included (it overrides
   // observed.threads there); 0 = every hardware thread (parallel.hpp).
   int threads = 0;
@@ -61,7 +68,9 @@ struct ChangeDetectionParams {
 //                 +0.02-0.12 at the same or better P_rm, docs/results.md), and only when two
 //                 keyframes put a point in their voxel (mask_min_keyframes; on seven paper
 //                 cells R_rm +0.00-0.09, mean +0.04, for P_rm -0.02-0.14, mean -0.06; sparse
-//                 dark depth loses most: S1_dark big P_rm 0.81 -> 0.67, docs/results.md).
+//                 dark depth loses most: S1_dark big P_rm 0.81 -> 0.67, docs/results.md) or
+//                 lie within 0.5 m of a prior point (mask_weak_radius_m: P_rm back to 0.77
+//                 there, eight cells' mean R_rm -0.005 for P_rm +0.05 against the count alone).
 //                 Rays without depth are not stopped at prior surfaces: measured on paper
 //                 S1_01 (docs/results.md), that part lowered R_rm by 0.036 and added no
 //                 precision once the voxel test was on (free_rays_stop_at_prior stays an option).
@@ -96,9 +105,18 @@ PointCloud NotSeenFree(const PointCloud& points, const ObservedArea& observed, i
 // point of `prior` (they see a prior surface again) and those outside the prior's footprint
 // (unmapped surfaces, as WithinPriorFootprint; footprint_radius_m 0 = no such test). A point
 // inside the footprint but near no prior point is a new object or depth noise.
+// With `support` (ChangeDetectionParams::mask_min_keyframes, mask_weak_radius_m): of those, a
+// point whose support (keyframes with a point in its voxel, one per point of `global`; 0 =
+// unknown, masks as before) is below min_keyframes masks only within weak_radius_m of a prior
+// point.
+struct MaskingSupport {
+  const std::vector<uint32_t>* keyframes = nullptr;  // nullptr: no support test
+  int min_keyframes = 0;
+  double weak_radius_m = 0.0;
+};
 std::vector<size_t> MaskingPoints(const PointCloud& global, const PointCloud& prior,
-                                  double reobserve_radius_m, double footprint_radius_m,
-                                  int threads);
+                                  double reobserve_radius_m, double footprint_radius_m, int threads,
+                                  const MaskingSupport& support = {});
 
 // Alg. 2. `threads` as ChangeDetectionParams::threads. `masking`: the points that keep a prior
 // point from being removed (within th_ch of it); nullptr = all of `global`, as in the paper.

@@ -68,9 +68,11 @@ struct PipelineConfig {
   // free by 3 keyframes net of hits, only voxels near the prior mask a removal).
   std::string free_space = "confident";
   // Under "confident": a voxel masks a removal only when one session put points of this many
-  // keyframes in it (ChangeDetectionParams::mask_min_keyframes; 0 = off). 2 trades removed
-  // precision for recall (seven paper cells: R_rm +0.03, P_rm -0.06; docs/results.md).
+  // keyframes in it (ChangeDetectionParams::mask_min_keyframes; 0 = off), or lies within
+  // mask_weak_radius_m of a prior point (0 = only the count). Both as the detector's confident
+  // rule: on eight paper cells R_rm 0.889 -> 0.912 for P_rm 0.927 -> 0.918 (docs/results.md).
   int mask_min_keyframes = 2;
+  double mask_weak_radius_m = 0.5;
   double session_voxel_m = 0.8;      // voxel of the session cloud (0.4 - 0.8)
   double octree_resolution_m = 0.8;  // rho_o
   int pixel_stride = 2;              // every n-th pixel in u and v (session cloud and rays)
