@@ -67,7 +67,7 @@ class FreeSpaceServer {
  public:
   FreeSpaceServer(const std::string& rule, const fs::path& dir, bool voxel_consensus = true,
                   const BoxScene& prior_scene = Prior(), double th_ch_m = 2.4,
-                  int mask_min_keyframes = 2) {
+                  int mask_min_keyframes = 2, double mask_weak_radius_m = 0.5) {
     ServerConfig c;
     c.storage.database = (dir / (rule + std::to_string(voxel_consensus) + ".db")).string();
     c.storage.tile_size_m = 20;
@@ -80,6 +80,7 @@ class FreeSpaceServer {
     c.classify.th_ch_m = th_ch_m;
     c.classify.voxel_consensus = voxel_consensus;
     c.pipeline.mask_min_keyframes = mask_min_keyframes;
+    c.pipeline.mask_weak_radius_m = mask_weak_radius_m;
     service_ = std::make_unique<MapService>(c, OpenSqliteStorage(c.storage.database));
     const std::string prior = (dir / "prior.pcd").string();
     WriteCloud(prior, prior_scene.Sample(0.4));
@@ -104,7 +105,7 @@ class FreeSpaceServer {
     EXPECT_EQ(state["state"], "succeeded") << state.dump(2);
   }
 
-  // Removed points on gone box A's top (z > 4) straight above `footprint`.
+  // Removed points on box A's top (z > 4) straight above `footprint`.
   size_t RemovedOnTopOfAAbove(const Box& footprint) const {
     size_t n = 0;
     for (const TileId& t : service_->storage().tiles().ListAggregated(std::nullopt)) {
@@ -264,6 +265,40 @@ TEST(CommitFreeSpace, AStrayInOneKeyframesDepthMasksNoRemoval) {
   EXPECT_EQ(one_keyframe_radius_only, 0u);
   EXPECT_GT(one_keyframe, 5u);
   EXPECT_EQ(every_keyframe, 0u);
+}
+
+// Box A still stands, but stereo found depth on it in one keyframe only (sparse depth, as in
+// the dark scene); the others' rays without depth pass through it. Under the keyframe support
+// alone its voxels, one keyframe's, mask nothing and A's top is reported removed; with
+// pipeline.mask_weak_radius_m a voxel seen once still masks on the prior's surface. (The low
+// back face, which no keyframe saw, is reported either way: rays crossed it, nothing ended
+// there.)
+TEST(CommitFreeSpace, AStandingBoxSeenOnceMasksItsOwnRemoval) {
+  log::SetLevel(log::Level::kWarn);
+  const fs::path dir = FreshTempDir("mds_free_space_seen_once");
+  const auto removed_on_a = [&](double weak_radius_m) {
+    const fs::path run_dir = dir / std::to_string(weak_radius_m);
+    fs::create_directories(run_dir);
+    FreeSpaceServer server("confident", run_dir, true, Prior(), 3.2, 2, weak_radius_m);
+    server.Commit("car", [](int64_t seq, const SE3& T) {
+      DepthImage depth = Prior().Render(TestCamera(), T, kMaxDepth);
+      if (seq == 9) return depth;  // the keyframe at x = 16, facing A
+      BoxScene a_only = Prior();
+      a_only.ground_z = -1000;  // out of view
+      a_only.boxes = {kBoxA};
+      const DepthImage a = a_only.Render(TestCamera(), T, kMaxDepth);
+      for (size_t i = 0; i < depth.depth_m.size(); ++i) {
+        if (a.depth_m[i] > 0 && a.depth_m[i] <= depth.depth_m[i] + 1e-3f) depth.depth_m[i] = 0;
+      }
+      return depth;
+    });
+    return server.RemovedOnTopOfAAbove(kBoxA);  // the top, which keyframe 9 sees
+  };
+  const size_t support_only = removed_on_a(0.0);
+  const size_t weak_radius = removed_on_a(0.5);
+  fs::remove_all(dir);
+  EXPECT_GT(support_only, 5u);
+  EXPECT_EQ(weak_radius, 0u);
 }
 
 // The prior maps the ground only from y = 4 on; the cameras see the real ground down to
