@@ -51,6 +51,21 @@ PointCloud Prior() {
   return prior;
 }
 
+// In a keyframe looking down from (cx, 0, kCameraHeight): the pixels that see the horizontal
+// rectangle x in [x0, x1], |y| <= half_width at height z get its depth when `seen`, none (0)
+// otherwise.
+void PaintRectangle(const PinholeCamera& camera, float cx, float z, float x0, float x1,
+                    float half_width, bool seen, Keyframe* keyframe) {
+  const float d = kCameraHeight - z;
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const float x = cx + d * static_cast<float>((u - camera.cx) / camera.fx);
+      const float y = -d * static_cast<float>((v - camera.cy) / camera.fy);
+      if (In(x, y, x0, x1, half_width)) keyframe->depth.at(u, v) = seen ? d : 0.f;
+    }
+  }
+}
+
 // Five keyframes 12 m up looking down, 0.5 m apart in x: the ground where the gone box stood,
 // the standing box's top and a 1 x 1 m slab over x in [-2.5, -1.5] at ghost_z, seen by the
 // first `ghost_keyframes` keyframes (the others see the ground through it).
@@ -62,21 +77,9 @@ KeyframeFolder DriveOver(float ghost_z = kGhostZ, int ghost_keyframes = 5) {
     const float cx = -2.f + 0.5f * k;
     Keyframe keyframe =
         testing::DownwardKeyframe(camera, k + 1, Eigen::Vector3d(cx, 0, kCameraHeight));
-    for (int v = 0; v < camera.height; ++v) {
-      for (int u = 0; u < camera.width; ++u) {
-        const auto at_height = [&](float z, float* x, float* y) {
-          const float d = kCameraHeight - z;
-          *x = cx + d * static_cast<float>((u - camera.cx) / camera.fx);
-          *y = -d * static_cast<float>((v - camera.cy) / camera.fy);
-          return d;
-        };
-        float x = 0, y = 0;
-        const float d_standing = at_height(kStandingTop, &x, &y);
-        if (In(x, y, 2.f, 4.f, 1.f)) keyframe.depth.at(u, v) = d_standing;
-        const float d_ghost = at_height(ghost_z, &x, &y);
-        if (k < ghost_keyframes && In(x, y, -2.5f, -1.5f, 0.5f)) keyframe.depth.at(u, v) = d_ghost;
-      }
-    }
+    PaintRectangle(camera, cx, kStandingTop, 2.f, 4.f, 1.f, true, &keyframe);
+    if (k < ghost_keyframes)
+      PaintRectangle(camera, cx, ghost_z, -2.5f, -1.5f, 0.5f, true, &keyframe);
     keyframes.keyframes.push_back(keyframe);
   }
   return keyframes;
@@ -187,19 +190,11 @@ PointCloud RoofPrior() {
 KeyframeFolder RoofSeenOnce() {
   KeyframeFolder keyframes;
   keyframes.camera = testing::SmallCamera();
-  const PinholeCamera& camera = keyframes.camera;
   for (int k = 0; k < 8; ++k) {
     const float cx = -1.f + 0.25f * k;
     Keyframe keyframe =
-        testing::DownwardKeyframe(camera, k + 1, Eigen::Vector3d(cx, 0, kCameraHeight));
-    const float d = kCameraHeight - kRoofTop;
-    for (int v = 0; v < camera.height; ++v) {
-      for (int u = 0; u < camera.width; ++u) {
-        const float x = cx + d * static_cast<float>((u - camera.cx) / camera.fx);
-        const float y = -d * static_cast<float>((v - camera.cy) / camera.fy);
-        if (In(x, y, -2.f, 2.f, 2.f)) keyframe.depth.at(u, v) = k == 0 ? d : 0.f;
-      }
-    }
+        testing::DownwardKeyframe(keyframes.camera, k + 1, Eigen::Vector3d(cx, 0, kCameraHeight));
+    PaintRectangle(keyframes.camera, cx, kRoofTop, -2.f, 2.f, 2.f, k == 0, &keyframe);
     keyframes.keyframes.push_back(keyframe);
   }
   return keyframes;

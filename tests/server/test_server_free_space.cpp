@@ -40,19 +40,22 @@ BoxScene Real() {  // box A is gone
   return s;
 }
 
-// The real scene's depth with the wall's pixels left empty (stereo found no match on it).
-DepthImage DepthWithUnmatchedWall(const SE3& T) {
-  DepthImage depth = Real().Render(TestCamera(), T, kMaxDepth);
-  BoxScene wall_only;
-  wall_only.ground = Real().ground;
-  wall_only.ground_z = -1000;  // out of view
-  wall_only.boxes = {kWall};
-  const DepthImage wall = wall_only.Render(TestCamera(), T, kMaxDepth);
+// The scene's depth with the pixels where `box` is the nearest surface left empty (stereo found
+// no match on it).
+DepthImage DepthWithUnmatchedBox(const BoxScene& scene, const Box& box, const SE3& T) {
+  DepthImage depth = scene.Render(TestCamera(), T, kMaxDepth);
+  BoxScene box_only = scene;
+  box_only.ground_z = -1000;  // out of view
+  box_only.boxes = {box};
+  const DepthImage box_depth = box_only.Render(TestCamera(), T, kMaxDepth);
   for (size_t i = 0; i < depth.depth_m.size(); ++i) {
-    if (wall.depth_m[i] > 0 && wall.depth_m[i] <= depth.depth_m[i] + 1e-3f) depth.depth_m[i] = 0;
+    if (box_depth.depth_m[i] > 0 && box_depth.depth_m[i] <= depth.depth_m[i] + 1e-3f)
+      depth.depth_m[i] = 0;
   }
   return depth;
 }
+
+DepthImage DepthWithUnmatchedWall(const SE3& T) { return DepthWithUnmatchedBox(Real(), kWall, T); }
 
 const Json kCamera{{"width", 160}, {"height", 90}, {"fx", 80}, {"fy", 80}, {"cx", 80}, {"cy", 45}};
 
@@ -281,16 +284,9 @@ TEST(CommitFreeSpace, AStandingBoxSeenOnceMasksItsOwnRemoval) {
     fs::create_directories(run_dir);
     FreeSpaceServer server("confident", run_dir, true, Prior(), 3.2, 2, weak_radius_m);
     server.Commit("car", [](int64_t seq, const SE3& T) {
-      DepthImage depth = Prior().Render(TestCamera(), T, kMaxDepth);
-      if (seq == 9) return depth;  // the keyframe at x = 16, facing A
-      BoxScene a_only = Prior();
-      a_only.ground_z = -1000;  // out of view
-      a_only.boxes = {kBoxA};
-      const DepthImage a = a_only.Render(TestCamera(), T, kMaxDepth);
-      for (size_t i = 0; i < depth.depth_m.size(); ++i) {
-        if (a.depth_m[i] > 0 && a.depth_m[i] <= depth.depth_m[i] + 1e-3f) depth.depth_m[i] = 0;
-      }
-      return depth;
+      // Keyframe 9, at x = 16, faces A and has its depth; the others none on A.
+      return seq == 9 ? Prior().Render(TestCamera(), T, kMaxDepth)
+                      : DepthWithUnmatchedBox(Prior(), kBoxA, T);
     });
     return server.RemovedOnTopOfAAbove(kBoxA);  // the top, which keyframe 9 sees
   };
