@@ -2,6 +2,8 @@
 // a dark, noisy stereo sequence of a textured plane sliding past the camera (the paper's dark
 // scene with big noise: about 10 grey levels of noise on a dim image). Sized by the measured
 // noise, the smoothing keeps more tracks alive; on a clean sequence it stays off.
+// And the stereo search's uniqueness margin (TrackerConfig::stereo_min_margin): on a facade of
+// repeated windows the best ZNCC along the row may be a wrong period.
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -82,6 +84,64 @@ TEST(FeatureTracker, NoSmoothingOnACleanSequence) {
   const Tracks clean = RunTracker(-1.0, 0.5);
   EXPECT_EQ(clean.last_sigma, 0.0);
   EXPECT_GT(clean.long_tracks, 50u);
+}
+
+// Left half: the dim blob texture; right half: a wall of identical windows every 20 px across
+// and 24 px down. The whole view is a plane kDisparity px of disparity away.
+cv::Mat TextureBesideWindows() {
+  cv::Mat image;
+  DimTexture(11)(cv::Rect(0, 0, kWidth + kDisparity, kHeight)).convertTo(image, CV_8U, 3.0, -20.0);
+  const int facade_x = (kWidth + kDisparity) / 2;
+  image(cv::Rect(facade_x, 0, image.cols - facade_x, kHeight)).setTo(cv::Scalar(150));
+  for (int y = 4; y + 14 < kHeight; y += 24) {
+    for (int x = facade_x + 4; x + 10 < image.cols; x += 20) {
+      image(cv::Rect(x, y, 10, 14)).setTo(cv::Scalar(60));
+    }
+  }
+  return image;
+}
+
+struct StereoCounts {
+  int texture_right = 0, texture_wrong = 0, facade_right = 0, facade_wrong = 0;
+};
+
+StereoCounts MatchOnce(double min_margin) {
+  const cv::Mat image = TextureBesideWindows();
+  TrackerConfig config;
+  config.stereo_min_margin = min_margin;
+  FeatureTracker tracker(config);
+  cv::theRNG().state = 5;
+  // A point at column X of `image` is at X in the left view and X - kDisparity in the right.
+  const cv::Mat left = WithNoise(image(cv::Rect(0, 0, kWidth, kHeight)), 2.0);
+  const cv::Mat right = WithNoise(image(cv::Rect(kDisparity, 0, kWidth, kHeight)), 2.0);
+  StereoCounts counts;
+  const int facade_x = (kWidth + kDisparity) / 2;  // in the left image
+  for (const TrackedFeature& f : tracker.Track(left, right)) {
+    if (!f.has_right) continue;
+    const bool right_depth = std::abs(f.left_px.x() - f.right_px.x() - kDisparity) < 1.0;
+    if (f.left_px.x() < facade_x - 8) {
+      ++(right_depth ? counts.texture_right : counts.texture_wrong);
+    } else if (f.left_px.x() > facade_x + 8) {
+      ++(right_depth ? counts.facade_right : counts.facade_wrong);
+    }
+  }
+  return counts;
+}
+
+TEST(FeatureTracker, TheStereoMarginRefusesAWrongPeriodOnRepeatedWindows) {
+  const StereoCounts best_only = MatchOnce(0.0);
+  const StereoCounts margin = MatchOnce(0.05);
+  std::printf(
+      "texture right/wrong, facade right/wrong: best only %d/%d %d/%d, margin %d/%d %d/%d\n",
+      best_only.texture_right, best_only.texture_wrong, best_only.facade_right,
+      best_only.facade_wrong, margin.texture_right, margin.texture_wrong, margin.facade_right,
+      margin.facade_wrong);
+  // The best ZNCC alone matches many windows one or more periods off.
+  EXPECT_GT(best_only.facade_wrong, 10);
+  // With the margin no window is matched at a wrong period; the unique texture still is.
+  EXPECT_EQ(margin.facade_wrong, 0);
+  EXPECT_GT(margin.texture_right, best_only.texture_right * 8 / 10);
+  EXPECT_EQ(margin.texture_wrong, 0);
 }
 
 }  // namespace

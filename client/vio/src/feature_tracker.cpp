@@ -276,6 +276,13 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     const int at =
         static_cast<int>(std::max_element(scores.begin(), scores.end()) - scores.begin());
     if (!(scores[static_cast<size_t>(at)] >= config_.min_zncc)) continue;
+    if (config_.stereo_min_margin > 0) {
+      float second = -1.f;
+      for (int k = 0; k < static_cast<int>(scores.size()); ++k) {
+        if (std::abs(k - at) > 2) second = std::max(second, scores[static_cast<size_t>(k)]);
+      }
+      if (scores[static_cast<size_t>(at)] - second < config_.stereo_min_margin) continue;
+    }
     // Sub-pixel peak by a parabola through the neighbours.
     double dx = 0;
     if (at > 0 && at + 1 < static_cast<int>(scores.size())) {
