@@ -3,7 +3,7 @@
 // scene with big noise: about 10 grey levels of noise on a dim image). Sized by the measured
 // noise, the smoothing keeps more tracks alive; on a clean sequence it stays off.
 // And the stereo search's uniqueness margin (TrackerConfig::stereo_min_margin): on a facade of
-// repeated windows the best ZNCC along the row may be a wrong period.
+// repeated windows the best ZNCC along the row may be a wrong period; such matches are flagged.
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -102,7 +102,10 @@ cv::Mat TextureBesideWindows() {
 }
 
 struct StereoCounts {
-  int texture_right = 0, texture_wrong = 0, facade_right = 0, facade_wrong = 0;
+  // Stereo matches at the right disparity or not, and of those at a wrong one how many were
+  // not flagged ambiguous; texture_ambiguous counts flagged matches on the unique texture.
+  int texture_right = 0, texture_ambiguous = 0, facade_right = 0, facade_wrong = 0,
+      facade_wrong_unflagged = 0;
 };
 
 StereoCounts MatchOnce(double min_margin) {
@@ -117,31 +120,39 @@ StereoCounts MatchOnce(double min_margin) {
   StereoCounts counts;
   const int facade_x = (kWidth + kDisparity) / 2;  // in the left image
   for (const TrackedFeature& f : tracker.Track(left, right)) {
-    if (!f.has_right) continue;
+    if (!f.has_right) {
+      EXPECT_FALSE(f.stereo_ambiguous);
+      continue;
+    }
     const bool right_depth = std::abs(f.left_px.x() - f.right_px.x() - kDisparity) < 1.0;
     if (f.left_px.x() < facade_x - 8) {
-      ++(right_depth ? counts.texture_right : counts.texture_wrong);
+      counts.texture_right += right_depth;
+      counts.texture_ambiguous += f.stereo_ambiguous;
     } else if (f.left_px.x() > facade_x + 8) {
-      ++(right_depth ? counts.facade_right : counts.facade_wrong);
+      counts.facade_right += right_depth;
+      counts.facade_wrong += !right_depth;
+      counts.facade_wrong_unflagged += !right_depth && !f.stereo_ambiguous;
     }
   }
   return counts;
 }
 
-TEST(FeatureTracker, TheStereoMarginRefusesAWrongPeriodOnRepeatedWindows) {
-  const StereoCounts best_only = MatchOnce(0.0);
+TEST(FeatureTracker, TheStereoMarginFlagsAWrongPeriodOnRepeatedWindowsAsAmbiguous) {
+  const StereoCounts off = MatchOnce(0.0);
   const StereoCounts margin = MatchOnce(0.05);
   std::printf(
-      "texture right/wrong, facade right/wrong: best only %d/%d %d/%d, margin %d/%d %d/%d\n",
-      best_only.texture_right, best_only.texture_wrong, best_only.facade_right,
-      best_only.facade_wrong, margin.texture_right, margin.texture_wrong, margin.facade_right,
-      margin.facade_wrong);
-  // The best ZNCC alone matches many windows one or more periods off.
-  EXPECT_GT(best_only.facade_wrong, 10);
-  // With the margin no window is matched at a wrong period; the unique texture still is.
-  EXPECT_EQ(margin.facade_wrong, 0);
-  EXPECT_GT(margin.texture_right, best_only.texture_right * 8 / 10);
-  EXPECT_EQ(margin.texture_wrong, 0);
+      "texture right %d (ambiguous %d), facade right %d, wrong %d (unflagged %d); "
+      "margin 0: %d (%d), %d, %d (%d)\n",
+      margin.texture_right, margin.texture_ambiguous, margin.facade_right, margin.facade_wrong,
+      margin.facade_wrong_unflagged, off.texture_right, off.texture_ambiguous, off.facade_right,
+      off.facade_wrong, off.facade_wrong_unflagged);
+  // The best ZNCC alone matches many windows one or more periods off; the flag is on only
+  // with a margin, and then on every one of them, and on no more than a few texture matches.
+  EXPECT_GT(margin.facade_wrong, 10);
+  EXPECT_EQ(margin.facade_wrong_unflagged, 0);
+  EXPECT_EQ(off.facade_wrong_unflagged, off.facade_wrong);
+  EXPECT_GT(margin.texture_right, 50);
+  EXPECT_LT(margin.texture_ambiguous, margin.texture_right / 10);
 }
 
 }  // namespace

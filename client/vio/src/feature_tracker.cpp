@@ -39,6 +39,7 @@ void FeatureTracker::Reset() {
   ids_.clear();
   counts_.clear();
   disparity_.clear();
+  ambiguous_.clear();
 }
 
 double FeatureTracker::SmoothingSigma(const cv::Mat& left) const {
@@ -78,6 +79,7 @@ std::vector<TrackedFeature> FeatureTracker::Track(const cv::Mat& left_in, const 
     out[i].has_right = has_right_[i] != 0;
     out[i].right_px = {right_points_[i].x, right_points_[i].y};
     out[i].track_count = counts_[i];
+    out[i].stereo_ambiguous = has_right_[i] != 0 && ambiguous_[i] != 0;
   }
   return out;
 }
@@ -111,6 +113,7 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
   Compact(&ids_, keep);
   Compact(&counts_, keep);
   Compact(&disparity_, keep);
+  Compact(&ambiguous_, keep);
   // Outliers that KLT tracked consistently but onto the wrong structure (e.g. occlusion
   // boundaries) violate the epipolar geometry of the frame pair.
   if (points_.size() >= 16) {
@@ -122,6 +125,7 @@ void FeatureTracker::TrackTemporal(const cv::Mat& left) {
       Compact(&ids_, inliers);
       Compact(&counts_, inliers);
       Compact(&disparity_, inliers);
+      Compact(&ambiguous_, inliers);
     }
   }
   for (int& c : counts_) ++c;
@@ -228,6 +232,7 @@ void FeatureTracker::Detect(const cv::Mat& left) {
     ids_.push_back(next_id_++);
     counts_.push_back(1);
     disparity_.push_back(-1.f);
+    ambiguous_.push_back(0);
     ++stats_.detected;
   }
   stats_.cells_searched = static_cast<int>(open.size());
@@ -276,12 +281,14 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     const int at =
         static_cast<int>(std::max_element(scores.begin(), scores.end()) - scores.begin());
     if (!(scores[static_cast<size_t>(at)] >= config_.min_zncc)) continue;
-    if (config_.stereo_min_margin > 0) {
+    // A full search decides whether the match is ambiguous; a band search keeps the verdict of
+    // the full search the track's disparity came from (a wrong period looks unique in the band).
+    if (last_disparity[i] < 0) {
       float second = -1.f;
       for (int k = 0; k < static_cast<int>(scores.size()); ++k) {
         if (std::abs(k - at) > 2) second = std::max(second, scores[static_cast<size_t>(k)]);
       }
-      if (scores[static_cast<size_t>(at)] - second < config_.stereo_min_margin) continue;
+      ambiguous_[i] = scores[static_cast<size_t>(at)] - second < config_.stereo_min_margin;
     }
     // Sub-pixel peak by a parabola through the neighbours.
     double dx = 0;

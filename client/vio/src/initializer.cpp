@@ -81,13 +81,21 @@ bool Initializer::RelativeMotion(const FrameFeatures& prev, const FrameFeatures&
   std::vector<cv::Point3f> far_object;
   std::vector<cv::Point2f> far_image;
   // The strongest, longest-tracked corners first (ids grow with detection order, and each
-  // detection round takes the best corners first); see init_max_pnp_points.
-  std::vector<const FeatureObservation*> candidates;
+  // detection round takes the best corners first); see init_max_pnp_points. Stereo matches the
+  // tracker found ambiguous (a repeated pattern: maybe a wrong period) only when fewer than 30
+  // unambiguous ones are left (a short baseline makes many matches ambiguous).
+  std::vector<const FeatureObservation*> candidates, ambiguous;
   for (const auto& f : prev.features) {
-    if (f.has_right) candidates.push_back(&f);
+    if (f.has_right) (f.stereo_ambiguous ? ambiguous : candidates).push_back(&f);
   }
-  std::sort(candidates.begin(), candidates.end(),
-            [](const FeatureObservation* a, const FeatureObservation* b) { return a->id < b->id; });
+  const auto older_first = [](const FeatureObservation* a, const FeatureObservation* b) {
+    return a->id < b->id;
+  };
+  std::sort(candidates.begin(), candidates.end(), older_first);
+  if (candidates.size() < 30) {
+    std::sort(ambiguous.begin(), ambiguous.end(), older_first);
+    candidates.insert(candidates.end(), ambiguous.begin(), ambiguous.end());
+  }
   if (static_cast<int>(candidates.size()) > config_.init_max_pnp_points) {
     candidates.resize(static_cast<size_t>(config_.init_max_pnp_points));
   }

@@ -127,6 +127,7 @@ struct StereoInertialOdometry::Impl {
       o.id = t.id;
       o.left = {(t.left_px.x() - k0.cx) / k0.fx, (t.left_px.y() - k0.cy) / k0.fy};
       o.has_right = t.has_right;
+      o.stereo_ambiguous = t.stereo_ambiguous;
       o.right = {(t.right_px.x() - k1.cx) / k1.fx, (t.right_px.y() - k1.cy) / k1.fy};
       f.features.push_back(o);
     }

@@ -24,6 +24,8 @@ struct TrackedFeature {
   bool has_right = false;
   Eigen::Vector2d right_px = Eigen::Vector2d::Zero();
   int track_count = 1;  // frames this feature has been seen in, including this one
+  // has_right, but another disparity scored almost as well (TrackerConfig::stereo_min_margin).
+  bool stereo_ambiguous = false;
 };
 
 struct TrackerStats {
@@ -56,7 +58,8 @@ class FeatureTracker {
   std::vector<cv::Point2f> points_;
   std::vector<uint64_t> ids_;
   std::vector<int> counts_;
-  std::vector<float> disparity_;  // last stereo disparity per feature, < 0 if none
+  std::vector<float> disparity_;          // last stereo disparity per feature, < 0 if none
+  std::vector<unsigned char> ambiguous_;  // its full stereo search was ambiguous
   std::vector<cv::Point2f> right_points_;
   std::vector<unsigned char> has_right_;
   uint64_t next_id_ = 1;

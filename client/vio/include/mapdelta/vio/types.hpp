@@ -16,6 +16,7 @@ struct FeatureObservation {
   Eigen::Vector2d left = Eigen::Vector2d::Zero();
   bool has_right = false;
   Eigen::Vector2d right = Eigen::Vector2d::Zero();
+  bool stereo_ambiguous = false;  // has_right from an ambiguous stereo search (tracker)
 };
 
 struct FrameFeatures {
