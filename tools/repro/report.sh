@@ -42,7 +42,7 @@ paper_rmse() {
   J '.runs | group_by([.sequence, .noise]) | .[] |
      def m(f): (map(f) | add / length);
      [.[0].sequence, .[0].noise, length, m(.ate_vio.rmse), m(.ate_vio.std), m(.ate_vio.max),
-      m(.ate_fused.rmse), m(.ate_fused.std), m(.ate_fused.max)] | @tsv' |
+      m(.ate_fused.rmse), m(.ate_fused.std), m(.ate_fused.max)] | map(. // "nan") | @tsv' |
     while IFS=$'\t' read -r s n k a b c d e f; do
       echo "| $s | $n | $k | $(f3 "$a") | $(f3 "$b") | $(f3 "$c") | $(f3 "$d") | $(f3 "$e") | $(f3 "$f") | $(f3 "$(paper_rmse "$s" "$n" 3)") | $(f3 "$(paper_rmse "$s" "$n" 6)") |"
     done
@@ -84,7 +84,7 @@ paper_rmse() {
       # Only runs that swept every th_f (see --sweep-trials): each row then averages the same runs.
       J --argjson b "$b" --arg noise "$noise" '[.runs[] | select(.full_sweep != false and .noise == $noise) | .sweep[] | select(.free_ray_bound_px == $b)] | group_by(.th_f_m) | .[] |
          def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
-         [.[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm), m(.detect_s), length] | @tsv' |
+         [.[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm), m(.detect_s), length] | map(. // "nan") | @tsv' |
         tee "$plots/thf_b$b-$noise.dat" |
         while IFS=$'\t' read -r t a bb c d e k; do
           echo "| $t | $(f3 "$a") | $(f3 "$bb") | $(f3 "$c") | $(f3 "$d") | $(awk -v x="$e" 'BEGIN{printf "%.1f", x}') | $k |"
@@ -119,7 +119,7 @@ EOG
   J '[.runs[] | select(.full_sweep != false) | . as $r | .sweep[] | . + {sequence: $r.sequence, noise: $r.noise}] |
      group_by([.sequence, .noise, .free_ray_bound_px, .th_f_m]) | .[] |
      def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
-     [.[0].sequence, .[0].noise, .[0].free_ray_bound_px, .[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm)] | @tsv' |
+     [.[0].sequence, .[0].noise, .[0].free_ray_bound_px, .[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm)] | map(. // "nan") | @tsv' |
     while IFS=$'\t' read -r s n b t a bb c d; do
       echo "| $s | $n | $b | $t | $(f3 "$a") | $(f3 "$bb") | $(f3 "$c") | $(f3 "$d") |"
     done
@@ -134,7 +134,7 @@ EOG
      (map(.sweep[] | select(.th_f_m == $t and .free_ray_bound_px == $b))) as $fz |
      [.[0].sequence, .[0].noise,
       ($fz | m(.paper.R_new)), ($fz | m(.paper.P_new)), ($fz | m(.paper.R_rm)), ($fz | m(.paper.P_rm)),
-      m(.vio_pose_changes.paper.R_new), m(.vio_pose_changes.paper.P_new), m(.vio_pose_changes.paper.R_rm), m(.vio_pose_changes.paper.P_rm)] | @tsv' |
+      m(.vio_pose_changes.paper.R_new), m(.vio_pose_changes.paper.P_new), m(.vio_pose_changes.paper.R_rm), m(.vio_pose_changes.paper.P_rm)] | map(. // "nan") | @tsv' |
     while IFS=$'\t' read -r s n a b c d e f g h; do
       echo "| $s | $n | fused | $(f3 "$a") | $(f3 "$b") | $(f3 "$c") | $(f3 "$d") |"
       echo "| $s | $n | VIO only | $(f3 "$e") | $(f3 "$f") | $(f3 "$g") | $(f3 "$h") |"
