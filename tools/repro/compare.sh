@@ -18,8 +18,9 @@ jq -r -n --slurpfile b "$before" --slurpfile a "$after" --argjson thf "$thf" --a
   def op: [.sweep[] | select(.th_f_m == $thf and .free_ray_bound_px == $bound)] | first;
   def rec: {key: "\(.sequence) \(.noise) \(.trial)", seq: .sequence, noise: .noise, trial: .trial,
             ate: .ate_fused.rmse, op: op, rule: .rule_compare, commit: .commit};
-  def mean(f): (map(f) | add) / length;
-  def r3: . * 1000 | round / 1000;
+  # Undefined values (R_rm of a run that observed no removed point) are left out of a mean.
+  def mean(f): map(f) | map(select(. != null)) | if length == 0 then null else add / length end;
+  def r3: if . == null then "–" else . * 1000 | round / 1000 end;
   def pair(x; y): "\(x | r3) → \(y | r3)";
   ($b[0].runs | map(rec) | map(select(.op != null)) | INDEX(.key)) as $B
   | [$a[0].runs[] | rec | select(.op != null and $B[.key] != null) | . + {before: $B[.key]}] as $both
@@ -39,9 +40,9 @@ jq -r -n --slurpfile b "$before" --slurpfile a "$after" --argjson thf "$thf" --a
     (if ($cells | length) > 1 then
       "| **mean of \($cells | length) cells** | | \($both | length) | " +
       ( [ "ate", "R_new", "P_new", "R_rm", "P_rm" ]
-        | map(. as $m | ($cells | map(if $m == "ate" then mean(.before.ate) else mean(.before.op.paper[$m]) end) | add / length) as $x
-                    | ($cells | map(if $m == "ate" then mean(.ate) else mean(.op.paper[$m]) end) | add / length) as $y
+        | map(. as $m | ($cells | map(if $m == "ate" then mean(.before.ate) else mean(.before.op.paper[$m]) end) | mean(.)) as $x
+                    | ($cells | map(if $m == "ate" then mean(.ate) else mean(.op.paper[$m]) end) | mean(.)) as $y
                     | "**" + pair($x; $y) + "**") | join(" | ")) + " |" +
-      (if $has_rule then " \($cells | map(mean(.rule.paper.R_rm)) | add / length | r3) | \($cells | map(mean(.rule.paper.P_rm)) | add / length | r3) |" else "" end)
+      (if $has_rule then " \($cells | map(mean(.rule.paper.R_rm)) | mean(.) | r3) | \($cells | map(mean(.rule.paper.P_rm)) | mean(.) | r3) |" else "" end)
     else empty end)
 '
