@@ -281,9 +281,10 @@ void FeatureTracker::MatchStereo(const cv::Mat& left, const cv::Mat& right) {
     const int at =
         static_cast<int>(std::max_element(scores.begin(), scores.end()) - scores.begin());
     if (!(scores[static_cast<size_t>(at)] >= config_.min_zncc)) continue;
-    // A full search decides whether the match is ambiguous; a band search keeps the verdict of
-    // the full search the track's disparity came from (a wrong period looks unique in the band).
-    if (last_disparity[i] < 0) {
+    // With a margin, a full search decides whether the match is ambiguous; a band search keeps the
+    // verdict of the full search the track's disparity came from (a wrong period looks unique in
+    // the band).
+    if (config_.stereo_min_margin > 0 && last_disparity[i] < 0) {
       float second = -1.f;
       for (int k = 0; k < static_cast<int>(scores.size()); ++k) {
         if (std::abs(k - at) > 2) second = std::max(second, scores[static_cast<size_t>(k)]);
