@@ -44,6 +44,10 @@ usage: bash tools/reproduce-paper.sh --out DIR [options]
   --keep-data         keep renoised images and detector clouds (default: delete after use)
   --no-nice           run heavy steps at normal priority (default: nice -n 10)
   --report-only       only rebuild results.json, report.md and plots from OUT
+  --redetect          finished runs whose detection another commit made keep their client
+                      output (trajectories, keyframes, ATE) and get every detection again with
+                      --build-dir's binaries: for a change of the detector alone. run.json then
+                      holds the client's commit (commit) and the detector's (detect_commit)
   --help              this text
 Every (sequence, noise, trial): the dataset (one clean render per sequence, then
 'mapdelta-sim renoise' per seed), the client with --odometry vio (writes VIO-alone and fused
@@ -56,7 +60,7 @@ EOF2
 root=$(cd "$(dirname "$0")/.." && pwd)
 out="" preset=paper sequences="" noises=small,big trials=5 city_seed=1 thf_list=5,10,15,20,25,30
 bounds=128,0 thf_point=20 free_space="" compare_free_space="" crowd=1,2,4,8 crowd_preset=tiny crowd_seq=S1_01 crowd_noise=small crowd_replay=""
-sweep_trials="" data="" build_dir=build sim_override="" keep_data=0 nice_cmd="nice -n 10" report_only=0
+sweep_trials="" data="" build_dir=build sim_override="" keep_data=0 nice_cmd="nice -n 10" report_only=0 redetect=0
 declare -A dataset_override=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -86,6 +90,7 @@ while [ $# -gt 0 ]; do
     --keep-data) keep_data=1; shift ;;
     --no-nice) nice_cmd=""; shift ;;
     --report-only) report_only=1; shift ;;
+    --redetect) redetect=1; shift ;;
     --help|-h) usage; exit 0 ;;
     *) echo "reproduce-paper: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
@@ -174,8 +179,15 @@ if [ "$report_only" = 0 ]; then
         n=$((n + 1))
         run=$out/runs/$seq-$noise-t$k
         say "run $n/$total: $seq, noise $noise, trial $k"
-        [ -f "$run/run.json" ] && { say "  done earlier, kept"; continue; }
-        ds=$(ensure_dataset "$preset" "$noise" "$k" "$seq")
+        if [ -f "$run/run.json" ]; then
+          if [ "$redetect" = 0 ] || [ "$(jq -r '.detect_commit // .commit' "$run/run.json")" = "$run_commit" ]; then
+            say "  done earlier, kept"
+            continue
+          fi
+          forget_detection "$run"
+          say "  detection again with $run_commit (client output of $(cat "$run/client/commit") kept)"
+        fi
+        ds=$(ensure_dataset "$preset" "$noise" "$k" "$seq" "$(client_done "$run" && echo 0 || echo 1)")
         run_client "$ds" "$seq" "$run"
         evaluate_ate "$ds" "$seq" "$run"
         evaluate_pre_reset "$ds" "$seq" "$run"

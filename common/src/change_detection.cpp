@@ -75,7 +75,7 @@ void ApplyFreeSpaceRule(const std::string& rule, ChangeDetectionParams* params) 
     params->mask_min_keyframes = 0;
     params->mask_weak_radius_m = 0.0;
   } else if (rule == "confident") {
-    params->observed.depth_sigma_per_m2 = 1.25e-3;
+    params->observed.depth_sigma_per_m2 = 0.5e-3;
     params->observed.depth_sigma_factor = 3.0;
     params->free_rays_stop_at_prior = false;
     params->removed_min_free_keyframes = 3;

@@ -21,10 +21,13 @@ using testing::Wall;
 
 ObservedAreaParams PaperParams() { return testing::SmallSceneParams(); }
 
+// The depth uncertainty of the shipped "confident" rule (sigma = 0.5e-3 d^2, 3 sigma).
 ObservedAreaParams ConfidentParams() {
+  ChangeDetectionParams rule;
+  ApplyFreeSpaceRule("confident", &rule);
   ObservedAreaParams params = PaperParams();
-  params.depth_sigma_per_m2 = 1.25e-3;  // as the "confident" rule: 0.5 px at fx * B = 400 m px
-  params.depth_sigma_factor = 3.0;
+  params.depth_sigma_per_m2 = rule.observed.depth_sigma_per_m2;
+  params.depth_sigma_factor = rule.observed.depth_sigma_factor;
   return params;
 }
 
@@ -36,8 +39,9 @@ PointCloud WallPoints(float z) {
   return wall;
 }
 
-// A prior wall at 20 m; stereo sees it 1 m too far (within 3 sigma(21 m) = 1.65 m) or the wall
-// is gone and stereo sees a building at 30 m. The paper's rule carves the wall in both cases;
+// A prior wall at 20 m; stereo sees it 0.5 m too far (within 3 sigma(20.5 m) = 0.63 m, about
+// the 95th percentile of the paper rig's overshoot at 20 m) or the wall is gone and stereo sees
+// a building at 30 m. The paper's rule carves the wall in both cases;
 // the confident rule only when the depth lies beyond the wall by more than its uncertainty.
 TEST(ConfidentFreeSpace, WallWithDepthOvershootBehindItIsNotCarved) {
   const PinholeCamera camera = SmallCamera();
@@ -45,17 +49,17 @@ TEST(ConfidentFreeSpace, WallWithDepthOvershootBehindItIsNotCarved) {
   for (const auto& [params, rule] :
        {std::pair{PaperParams(), "paper"}, std::pair{ConfidentParams(), "confident"}}) {
     ObservedArea overshoot(0.4), removed(0.4);
-    overshoot.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 21.f), params);
+    overshoot.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 20.5f), params);
     removed.InsertKeyframe(camera, SE3::Identity(), Wall(camera, 30.f), params);
     const bool confident = std::string(rule) == "confident";
     EXPECT_EQ(overshoot.IsSeenFree(on_wall, 1), !confident) << rule;
-    EXPECT_TRUE(removed.IsSeenFree(on_wall, 1)) << rule;  // 30 - 3 sigma(30) = 26.6 m > 20 m
+    EXPECT_TRUE(removed.IsSeenFree(on_wall, 1)) << rule;  // 30 - 3 sigma(30) = 28.65 m > 20 m
     EXPECT_TRUE(overshoot.IsSeenFree({0.f, 0.f, 15.f}, 1)) << rule;  // well before the wall
   }
 }
 
-// Near depths are confident, far ones are not: the free part of a 45 m ray stops 7.6 m short
-// (3 sigma), of a 10 m ray only 0.375 m.
+// Near depths are confident, far ones are not: the free part of a 45 m ray stops 3.04 m short
+// (3 sigma), of a 10 m ray only 0.15 m.
 TEST(ConfidentFreeSpace, ConfidentNearDepthCarvesFurtherThanAnUncertainFarOne) {
   const PinholeCamera camera = SmallCamera();
   DepthImage depth = Wall(camera, 10.f);
@@ -70,7 +74,7 @@ TEST(ConfidentFreeSpace, ConfidentNearDepthCarvesFurtherThanAnUncertainFarOne) {
   const auto right = [](float z) { return Point(0.3f * z, 0.1f * z, z); };
   EXPECT_TRUE(confident.IsSeenFree(left(9.f), 1));
   EXPECT_TRUE(confident.IsSeenFree(right(30.f), 1));
-  for (float z = 39.f; z < 44.f; z += 1.f) {
+  for (float z = 42.5f; z < 44.6f; z += 0.5f) {
     EXPECT_TRUE(paper.IsSeenFree(right(z), 1)) << z;
     EXPECT_FALSE(confident.IsSeenFree(right(z), 1)) << z;
   }

@@ -8,6 +8,8 @@
 #  - repro/report.sh: runs and timings by machine, dataset times per sequence.
 #  - repro/restore.sh: the runs of a results.json come back as OUT/runs/SEQ-NOISE-tK/run.json,
 #    each with its machine.
+#  - --redetect's helpers: forget_detection keeps the client output and its commit; a pruned
+#    trial serves a finished client without renoising; report.sh and compare.sh name both commits.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 tools=$here/../../tools
@@ -63,12 +65,12 @@ cat >"$tmp/results.json" <<'EOJ'
  "dataset_times":[{"preset":"tiny","sequence":"S1_01","render_s":10},{"preset":"tiny","sequence":"S1_01","render_s":20.4},
                   {"preset":"tiny","sequence":"S1_01","noise":"small","seed":2,"renoise_s":5}],
  "runs":[
-  {"sequence":"S1_01","noise":"small","trial":1,"ate_vio":{"rmse":0.4,"std":0.1,"max":0.8},"ate_fused":{"rmse":0.1,"std":0.05,"max":0.2},
+  {"sequence":"S1_01","noise":"small","trial":1,"commit":"abc","ate_vio":{"rmse":0.4,"std":0.1,"max":0.8},"ate_fused":{"rmse":0.1,"std":0.05,"max":0.2},
    "client_timing":{"stages":[{"stage":"odometry","seconds":10,"calls":100,"ms_per_call":100}],"wall_s":12,"frames":100,"keyframes":10},
    "sweep":[{"free_ray_bound_px":128,"th_f_m":10,"detect_s":2,"paper":{"R_new":0.9,"P_new":0.8,"R_rm":0.7,"P_rm":0.6}},
             {"free_ray_bound_px":128,"th_f_m":20,"detect_s":4,"paper":{"R_new":1.0,"P_new":0.8,"R_rm":0.7,"P_rm":0.4}}],
    "vio_pose_changes":{"paper":{"R_new":0.5,"P_new":0.5,"R_rm":0.5,"P_rm":0.5}},"vio_pose_params":"th_f 20 m"},
-  {"sequence":"S1_01","noise":"small","trial":2,"machine":{"cpu":"other","nproc":2},"ate_vio":{"rmse":0.6,"std":0.3,"max":1.0},"ate_fused":{"rmse":0.3,"std":0.15,"max":0.4},
+  {"sequence":"S1_01","noise":"small","trial":2,"commit":"abc","detect_commit":"def","machine":{"cpu":"other","nproc":2},"ate_vio":{"rmse":0.6,"std":0.3,"max":1.0},"ate_fused":{"rmse":0.3,"std":0.15,"max":0.4},
    "client_timing":{"stages":[{"stage":"odometry","seconds":20,"calls":100,"ms_per_call":200}],"wall_s":22,"frames":100,"keyframes":10},
    "sweep":[{"free_ray_bound_px":128,"th_f_m":10,"detect_s":2,"paper":{"R_new":0.7,"P_new":0.6,"R_rm":0.5,"P_rm":0.4}},
             {"free_ray_bound_px":128,"th_f_m":20,"detect_s":4,"paper":{"R_new":0.8,"P_new":0.6,"R_rm":0.5,"P_rm":0.2}}],
@@ -99,4 +101,31 @@ jq -e --slurpfile r "$tmp/results.json" '. == $r[0].runs[1]' \
   "$tmp/restored/runs/S1_01-small-t2/run.json" >/dev/null || fail "restored run.json of trial 2 (its own machine)"
 bash "$tools/repro/restore.sh" "$tmp/results.json" "$tmp/restored" 2>&1 | grep -q '0 run(s) restored' || fail "restore twice"
 if bash "$tools/repro/restore.sh" "$md" "$tmp/restored2" 2>/dev/null; then fail "restore accepted a Markdown file"; fi
+grep -qF 'Runs by commit: `abc` (1), `abc, detection def` (1).' "$md" || fail "runs by commit (client, detection)"
+bash "$tools/repro/compare.sh" "$tmp/results.json" "$tmp/results.json" >"$tmp/compare.md"
+grep -qF 'after: rule paper, commit(s) abc, abc (detection def).' "$tmp/compare.md" || fail "compare: commits"
+grep -qF '| S1_01 | small | 2 | 0.2 → 0.2 | 0.9 → 0.9 | 0.7 → 0.7 | 0.6 → 0.6 | 0.3 → 0.3 |' "$tmp/compare.md" ||
+  fail "compare: means over the trials"
+
+# --redetect: forget_detection drops the record and every detection, keeps the client output and
+# the commit that made it; client_done sees the finished client.
+run=$tmp/runs/S1_01-small-t1
+mkdir -p "$run/client/keyframes" "$run/detect/b128-thf20" "$run/detect-vio" "$run/detect-rule-paper"
+: >"$run/client/timing.txt"
+: >"$run/client/fused.txt"
+echo '{"commit":"abc"}' >"$run/run.json"
+client_done "$run" || fail "client_done: a finished client"
+forget_detection "$run"
+[ ! -e "$run/run.json" ] && [ ! -e "$run/detect" ] && [ ! -e "$run/detect-vio" ] && [ ! -e "$run/detect-rule-paper" ] ||
+  fail "forget_detection left a detection"
+[ -d "$run/client/keyframes" ] && [ "$(cat "$run/client/commit")" = abc ] || fail "forget_detection: client output or its commit"
+rm "$run/client/fused.txt"
+if client_done "$run"; then fail "client_done: a client without fused.txt"; fi
+# A pruned trial (info.json, no images) serves a finished client; the client itself needs images.
+data=$tmp/data city_seed=1 out=$tmp bin_sim=false nice_cmd="" log=$tmp/log.txt
+mkdir -p "$data/paper-small-s1-n1/sequences/S1_01"
+echo '{}' >"$data/paper-small-s1-n1/sequences/S1_01/info.json"
+declare -A dataset_override=()
+[ "$(ensure_dataset paper small 1 S1_01 0)" = "$data/paper-small-s1-n1" ] || fail "ensure_dataset: pruned trial, client done"
+if (ensure_dataset paper small 1 S1_01 1 2>/dev/null); then fail "ensure_dataset: pruned trial served a client run"; fi
 echo "repro helpers: all checks passed"

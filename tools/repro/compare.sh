@@ -17,7 +17,9 @@ done
 jq -r -n --slurpfile b "$before" --slurpfile a "$after" --argjson thf "$thf" --argjson bound "$bound" '
   def op: [.sweep[] | select(.th_f_m == $thf and .free_ray_bound_px == $bound)] | first;
   def rec: {key: "\(.sequence) \(.noise) \(.trial)", seq: .sequence, noise: .noise, trial: .trial,
-            ate: .ate_fused.rmse, op: op, rule: .rule_compare, commit: .commit};
+            ate: .ate_fused.rmse, op: op, rule: .rule_compare,
+            # A run detected again (--redetect) names the commits of its client and detector.
+            commit: (if (.detect_commit // .commit) != .commit then "\(.commit) (detection \(.detect_commit))" else .commit end)};
   # Undefined values (R_rm of a run that observed no removed point) are left out of a mean.
   def mean(f): map(f) | map(select(. != null)) | if length == 0 then null else add / length end;
   def r3: if . == null then "–" else . * 1000 | round / 1000 end;

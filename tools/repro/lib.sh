@@ -9,10 +9,12 @@ die() { echo "reproduce-paper: $*" >&2; exit 1; }
 now_s() { date +%s.%N | cut -c1-14; }
 elapsed() { awk -v a="$1" -v b="$(now_s)" 'BEGIN { printf "%.2f", b - a }'; }
 
-# ensure_dataset PRESET NOISE TRIAL SEQ -> prints the dataset root holding sequences/SEQ.
-# Trial k uses noise seed k on the clean render of city seed $city_seed; --dataset overrides.
+# ensure_dataset PRESET NOISE TRIAL SEQ [NEED_IMAGES] -> prints the dataset root holding
+# sequences/SEQ. Trial k uses noise seed k on the clean render of city seed $city_seed; --dataset
+# overrides. NEED_IMAGES 0 (the client has run): a pruned trial is enough, for its scenes, sensor
+# files and ground truth.
 ensure_dataset() {
-  local p=$1 noise=$2 k=$3 seq=$4
+  local p=$1 noise=$2 k=$3 seq=$4 need_images=${5:-1}
   local key="$noise:$k"
   if [ -n "${dataset_override[$key]:-}" ]; then
     [ -f "${dataset_override[$key]}/sequences/$seq/info.json" ] ||
@@ -22,7 +24,8 @@ ensure_dataset() {
   fi
   local clean=$data/clean-$p-s$city_seed root=$data/$p-$noise-s$city_seed-n$k
   # Pruned trials keep info.json but not their images: renoise again.
-  if [ ! -f "$root/sequences/$seq/info.json" ] || [ ! -d "$root/sequences/$seq/mav0/cam1/data" ]; then
+  if [ ! -f "$root/sequences/$seq/info.json" ] ||
+    { [ "$need_images" = 1 ] && [ ! -d "$root/sequences/$seq/mav0/cam1/data" ]; }; then
     if [ ! -f "$clean/sequences/$seq/info.json" ]; then
       say "render $p/$seq once without noise (city seed $city_seed) -> $clean"
       local t0; t0=$(now_s)
@@ -64,15 +67,27 @@ timing_json() {
 }
 
 # run_client DATASET SEQ RUN_DIR: the vehicle pipeline offline (prior from the dataset file).
+# client_done RUN_DIR: the client finished in RUN_DIR (its trajectories and keyframes are kept).
+client_done() { [ -f "$1/client/timing.txt" ] && [ -f "$1/client/fused.txt" ]; }
+
 run_client() {
   local ds=$1 seq=$2 run=$3
-  if [ -f "$run/client/timing.txt" ] && [ -f "$run/client/fused.txt" ]; then return; fi
+  client_done "$run" && return
   rm -rf "$run/client"
   mkdir -p "$run"
   say "client on $seq ($(basename "$run")): VIO + stereo depth + GICP to the prior + fusion"
   $nice_cmd "$bin_client" run --sequence "$ds/sequences/$seq" --odometry vio \
     --prior "$ds/scenes/original/cloud.pcd" --out "$run/client" >"$run/client.log" 2>&1 ||
     die "client failed on $seq (see $run/client.log)"
+  echo "$run_commit" >"$run/client/commit"
+}
+
+# forget_detection RUN_DIR (--redetect): drops the run's record and detections, keeps the client
+# output and notes the commit that made it (runs from before client/commit take run.json's).
+forget_detection() {
+  local run=$1
+  [ -f "$run/client/commit" ] || jq -r '.commit // "unrecorded"' "$run/run.json" >"$run/client/commit"
+  rm -rf "$run/run.json" "$run/detect" "$run/detect-vio" "$run"/detect-rule-*
 }
 
 # evaluate_ate DATASET SEQ RUN_DIR
@@ -153,8 +168,9 @@ run_json() {
     --slurpfile av "$run/ate_vio.json" --slurpfile af "$run/ate_fused.json" \
     --argjson timing "$(timing_json "$run/client")" --argjson sweep "$sweep" --argjson vio "$vio" --argjson rule "$rule" \
     --arg vio_params "$vio_point" --argjson full_sweep "$5" \
-    --arg commit "$run_commit" --arg cpu "$run_cpu" --argjson nproc "$(nproc)" \
-    '{sequence: $seq, noise: $noise, trial: $k, commit: $commit, machine: {cpu: $cpu, nproc: $nproc}, full_sweep: $full_sweep,
+    --arg commit "$(cat "$run/client/commit" 2>/dev/null || echo "$run_commit")" --arg detect_commit "$run_commit" \
+    --arg cpu "$run_cpu" --argjson nproc "$(nproc)" \
+    '{sequence: $seq, noise: $noise, trial: $k, commit: $commit, detect_commit: $detect_commit, machine: {cpu: $cpu, nproc: $nproc}, full_sweep: $full_sweep,
       ate_vio: ($av[0] | {rmse, std, max, mean, pairs}), ate_fused: ($af[0] | {rmse, std, max, mean, pairs}),
       client_timing: $timing, sweep: $sweep, rule_compare: $rule, vio_pose_changes: $vio, vio_pose_params: $vio_params} + $resets[0]'
 }

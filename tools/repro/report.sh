@@ -24,8 +24,10 @@ paper_rmse() {
   echo "# mapdelta: the paper's experiments on the simulator"
   echo
   J '"Preset `\(.preset)`, sequences \(.sequences | join(", ")), noise \(.noises | join(", ")), \(.trials) trial(s) (noise seeds 1..\(.trials)), city seed \(.city_seed). Commit `\(.commit)`, started \(.started), finished \(.finished); machine: \(.machine.nproc) × \(.machine.cpu), load average \(.machine.loadavg_at_start) at start, \(.loadavg_at_end) at the end."'
-  # A run resumed over several sessions may hold runs made by different commits: say which.
-  J '[.runs[] | .commit // "unrecorded"] | group_by(.) | if length > 1 then
+  # A run resumed over several sessions may hold runs made by different commits, and a run
+  # detected again (--redetect) has the detector's besides the client's: say which.
+  J '[.runs[] | (.commit // "unrecorded") as $c | if (.detect_commit // $c) != $c then "\($c), detection \(.detect_commit)" else $c end]
+     | group_by(.) | if length > 1 or (.[0][0] | test(", detection")) then
        "\nRuns by commit: " + (map("`\(.[0])` (\(length))") | join(", ")) + "." else empty end'
   J '[.runs[] | .machine.cpu // "unrecorded"] | group_by(.) | if length > 1 then
        "\nRuns by machine: " + (map("\(.[0]) (\(length))") | join(", ")) + ". The client'"'"'s timings differ between them (see Processing time)." else empty end'
