@@ -184,6 +184,10 @@ if [ "$report_only" = 0 ]; then
             say "  done earlier, kept"
             continue
           fi
+          if ! client_done "$run"; then  # restored from a record: nothing to detect on
+            say "  done earlier, no client output to detect again: kept"
+            continue
+          fi
           forget_detection "$run"
           say "  detection again with $run_commit (client output of $(cat "$run/client/commit") kept)"
         fi
