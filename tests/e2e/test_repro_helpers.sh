@@ -102,6 +102,10 @@ jq -e --slurpfile r "$tmp/results.json" '. == $r[0].runs[1]' \
 bash "$tools/repro/restore.sh" "$tmp/results.json" "$tmp/restored" 2>&1 | grep -q '0 run(s) restored' || fail "restore twice"
 if bash "$tools/repro/restore.sh" "$md" "$tmp/restored2" 2>/dev/null; then fail "restore accepted a Markdown file"; fi
 grep -qF 'Runs by commit: `abc` (1), `abc, detection def` (1).' "$md" || fail "runs by commit (client, detection)"
+# A crowd-only record (--trials 0) has no runs: the report still renders.
+jq '.runs = [] | .trials = 0' "$tmp/results.json" >"$tmp/results_crowd_only.json"
+bash "$tools/repro/report.sh" "$tmp/results_crowd_only.json" "$tmp/report_crowd_only" 2>/dev/null ||
+  fail "report of a record without runs"
 bash "$tools/repro/compare.sh" "$tmp/results.json" "$tmp/results.json" >"$tmp/compare.md"
 grep -qF 'after: rule paper, commit(s) abc, abc (detection def).' "$tmp/compare.md" || fail "compare: commits"
 grep -qF '| S1_01 | small | 2 | 0.2 → 0.2 | 0.9 → 0.9 | 0.7 → 0.7 | 0.6 → 0.6 | 0.3 → 0.3 |' "$tmp/compare.md" ||
