@@ -66,10 +66,10 @@ timing_json() {
       '{stages: ., wall_s: $wall, frames: $frames, keyframes: $kfs}'
 }
 
-# run_client DATASET SEQ RUN_DIR: the vehicle pipeline offline (prior from the dataset file).
 # client_done RUN_DIR: the client finished in RUN_DIR (its trajectories and keyframes are kept).
 client_done() { [ -f "$1/client/timing.txt" ] && [ -f "$1/client/fused.txt" ]; }
 
+# run_client DATASET SEQ RUN_DIR: the vehicle pipeline offline (prior from the dataset file).
 run_client() {
   local ds=$1 seq=$2 run=$3
   client_done "$run" && return
