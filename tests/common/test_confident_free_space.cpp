@@ -41,8 +41,8 @@ PointCloud WallPoints(float z) {
 
 // A prior wall at 20 m; stereo sees it 0.5 m too far (within 3 sigma(20.5 m) = 0.63 m, about
 // the 95th percentile of the paper rig's overshoot at 20 m) or the wall is gone and stereo sees
-// a building at 30 m. The paper's rule carves the wall in both cases;
-// the confident rule only when the depth lies beyond the wall by more than its uncertainty.
+// a building at 30 m. The paper's rule carves the wall in both cases; the confident rule only
+// when the depth lies beyond the wall by more than its uncertainty.
 TEST(ConfidentFreeSpace, WallWithDepthOvershootBehindItIsNotCarved) {
   const PinholeCamera camera = SmallCamera();
   const Point on_wall(0.6f, -0.4f, 20.1f);

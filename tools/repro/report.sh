@@ -27,7 +27,7 @@ paper_rmse() {
   # A run resumed over several sessions may hold runs made by different commits, and a run
   # detected again (--redetect) has the detector's besides the client's: say which.
   J '[.runs[] | (.commit // "unrecorded") as $c | if (.detect_commit // $c) != $c then "\($c), detection \(.detect_commit)" else $c end]
-     | group_by(.) | if length > 1 or (length == 1 and (.[0][0] | test(", detection"))) then
+     | group_by(.) | if length > 1 or any(.[]; .[0] | contains(", detection")) then
        "\nRuns by commit: " + (map("`\(.[0])` (\(length))") | join(", ")) + "." else empty end'
   J '[.runs[] | .machine.cpu // "unrecorded"] | group_by(.) | if length > 1 then
        "\nRuns by machine: " + (map("\(.[0]) (\(length))") | join(", ")) + ". The client'"'"'s timings differ between them (see Processing time)." else empty end'
