@@ -10,6 +10,7 @@
 #    each with its machine.
 #  - --redetect's helpers: forget_detection keeps the client output and its commit; a pruned
 #    trial serves a finished client without renoising; report.sh and compare.sh name both commits.
+#  - ensure_dataset: two reproductions sharing --data render a sequence once.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 tools=$here/../../tools
@@ -132,4 +133,29 @@ echo '{}' >"$data/paper-small-s1-n1/sequences/S1_01/info.json"
 declare -A dataset_override=()
 [ "$(ensure_dataset paper small 1 S1_01 0)" = "$data/paper-small-s1-n1" ] || fail "ensure_dataset: pruned trial, client done"
 if (ensure_dataset paper small 1 S1_01 1 2>/dev/null); then fail "ensure_dataset: pruned trial served a client run"; fi
+# Two reproductions sharing --data reach an unrendered sequence together (one per noise level):
+# one renders it, the other waits and renoises from it. The stand-in simulator takes a second per
+# render, so without the lock both would render into one folder.
+cat >"$tmp/fake-sim" <<'EOF2'
+#!/usr/bin/env bash
+out="" seq=""
+[ "$1" = renoise ] && { mode=renoise; shift; } || mode=render
+while [ $# -gt 0 ]; do
+  case $1 in --out) out=$2; shift 2 ;; --sequences) seq=$2; shift 2 ;; *) shift ;; esac
+done
+if [ "$mode" = render ]; then
+  echo "$seq" >>"$(dirname "$out")/renders.txt"
+  sleep 1
+fi
+mkdir -p "$out/sequences/$seq/mav0/cam1/data"
+echo '{}' >"$out/sequences/$seq/info.json"
+EOF2
+chmod +x "$tmp/fake-sim"
+bin_sim=$tmp/fake-sim started=$(date +%s)
+ensure_dataset paper small 2 S1_02 >"$tmp/small.txt" 2>/dev/null &
+ensure_dataset paper big 2 S1_02 >"$tmp/big.txt" 2>/dev/null &
+wait
+[ "$(cat "$data/renders.txt")" = S1_02 ] || fail "ensure_dataset: rendered $(wc -l <"$data/renders.txt") times for two reproductions"
+[ "$(cat "$tmp/small.txt")" = "$data/paper-small-s1-n2" ] && [ "$(cat "$tmp/big.txt")" = "$data/paper-big-s1-n2" ] &&
+  [ -f "$data/paper-big-s1-n2/sequences/S1_02/info.json" ] || fail "ensure_dataset: the waiting reproduction's trial"
 echo "repro helpers: all checks passed"

@@ -27,11 +27,20 @@ ensure_dataset() {
   if [ ! -f "$root/sequences/$seq/info.json" ] ||
     { [ "$need_images" = 1 ] && [ ! -d "$root/sequences/$seq/mav0/cam1/data" ]; }; then
     if [ ! -f "$clean/sequences/$seq/info.json" ]; then
-      say "render $p/$seq once without noise (city seed $city_seed) -> $clean"
-      local t0; t0=$(now_s)
-      $nice_cmd "$bin_sim" --preset "$p" --out "$clean" --noise none --seed "$city_seed" \
-        --sequences "$seq" --quiet >>"$log" 2>&1 || die "mapdelta-sim failed (see $log)"
-      echo "{\"preset\":\"$p\",\"sequence\":\"$seq\",\"render_s\":$(elapsed "$t0")}" >>"$out/dataset_times.jsonl"
+      # Reproductions sharing --data (one per noise level, say) reach a sequence together: the
+      # first renders it, the others wait on the lock and find it done. The lock goes with the
+      # file descriptor when the subshell that prints the root exits, also on failure.
+      local lock_fd
+      exec {lock_fd}>"$data/.render-$p-s$city_seed.lock"
+      flock "$lock_fd"
+      if [ ! -f "$clean/sequences/$seq/info.json" ]; then
+        say "render $p/$seq once without noise (city seed $city_seed) -> $clean"
+        local t0; t0=$(now_s)
+        $nice_cmd "$bin_sim" --preset "$p" --out "$clean" --noise none --seed "$city_seed" \
+          --sequences "$seq" --quiet >>"$log" 2>&1 || die "mapdelta-sim failed (see $log)"
+        echo "{\"preset\":\"$p\",\"sequence\":\"$seq\",\"render_s\":$(elapsed "$t0")}" >>"$out/dataset_times.jsonl"
+      fi
+      exec {lock_fd}>&-
     fi
     say "renoise $p/$seq: noise $noise, seed $k -> $root"
     local t0; t0=$(now_s)
