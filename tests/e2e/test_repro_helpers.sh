@@ -10,6 +10,7 @@
 #    each with its machine.
 #  - --redetect's helpers: forget_detection keeps the client output and its commit; a pruned
 #    trial serves a finished client without renoising; report.sh and compare.sh name both commits.
+#  - repro/report.sh of a record without a th_f sweep (--sweep-trials 0) says so.
 #  - ensure_dataset: two reproductions sharing --data render a sequence once.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -107,6 +108,14 @@ grep -qF 'Runs by commit: `abc` (1), `abc, detection def` (1).' "$md" || fail "r
 jq '.runs = [] | .trials = 0' "$tmp/results.json" >"$tmp/results_crowd_only.json"
 bash "$tools/repro/report.sh" "$tmp/results_crowd_only.json" "$tmp/report_crowd_only" 2>/dev/null ||
   fail "report of a record without runs"
+# A record of operating points only (--sweep-trials 0) says so instead of an empty th_f table.
+jq '.sweep_trials = 0 | .runs[] |= (.full_sweep = false | .sweep |= map(select(.th_f_m == 20)))' "$tmp/results.json" \
+  >"$tmp/results_no_sweep.json"
+bash "$tools/repro/report.sh" "$tmp/results_no_sweep.json" "$tmp/report_no_sweep" 2>/dev/null
+grep -qF 'No th_f sweep in this record (`--sweep-trials 0`)' "$tmp/report_no_sweep/report.md" &&
+  grep -qF 'No run in this record swept th_f.' "$tmp/report_no_sweep/report.md" || fail "report without a sweep: the note"
+if grep -qF 'Per sequence (mean over trials):' "$tmp/report_no_sweep/report.md"; then fail "report without a sweep: empty table"; fi
+grep -qF '| S1_01 | small | fused | 0.900 |' "$tmp/report_no_sweep/report.md" || fail "report without a sweep: Fig. 6 row"
 bash "$tools/repro/compare.sh" "$tmp/results.json" "$tmp/results.json" >"$tmp/compare.md"
 grep -qF 'after: rule paper, commit(s) abc, abc (detection def).' "$tmp/compare.md" || fail "compare: commits"
 grep -qF '| S1_01 | small | 2 | 0.2 → 0.2 | 0.9 → 0.9 | 0.7 → 0.7 | 0.6 → 0.6 | 0.3 → 0.3 |' "$tmp/compare.md" ||

@@ -31,7 +31,9 @@ paper_rmse() {
        "\nRuns by commit: " + (map("`\(.[0])` (\(length))") | join(", ")) + "." else empty end'
   J '[.runs[] | .machine.cpu // "unrecorded"] | group_by(.) | if length > 1 then
        "\nRuns by machine: " + (map("\(.[0]) (\(length))") | join(", ")) + ". The client'"'"'s timings differ between them (see Processing time)." else empty end'
-  J 'if (.sweep_trials // .trials) < .trials then
+  J 'if .trials > 0 and .sweep_trials == 0 then
+       "\nNo th_f sweep in this record (`--sweep-trials 0`): every trial has the operating point only (Table III, Fig. 6)."
+     elif (.sweep_trials // .trials) < .trials then
        "\nThe th_f sweep (Fig. 4 analogue, per-sequence table) covers trials 1..\(.sweep_trials); every trial has the operating point (Table III, Fig. 6)." else empty end'
   echo
   echo "## Table III analogue: ATE (m, SE(3)-aligned, keyframe poses), mean over trials"
@@ -74,6 +76,8 @@ paper_rmse() {
   # Noise levels and bounds present in the swept runs (a resumed reproduction may have swept more
   # than its last call asked for).
   sweep_noises=$(J '[.runs[] | select(.full_sweep != false) | .noise] | unique | sort_by(if . == "small" then 0 elif . == "big" then 1 else 2 end) | join(" ")')
+  # A record without swept runs (--sweep-trials 0, or crowd only) says so instead of empty tables.
+  [ -n "$sweep_noises" ] || { echo "No run in this record swept th_f."; echo; }
   for b in $(J '.free_ray_bounds_px as $p | ($p + ([.runs[].sweep[].free_ray_bound_px] | unique | map(select(. as $x | $p | index($x) | not))))[]'); do
     if [ "$b" = 0 ]; then bound_text="Free-ray bound 0 (the paper's rule: every pixel without depth is free space up to th_f)"
     else bound_text="Free-ray bound $b px (the server's default: a pixel without depth is free only up to the nearest depth within $b px)"; fi
@@ -114,18 +118,20 @@ plot $plot_cmd
 EOG
     fi
   done
-  echo "Per sequence (mean over trials):"
-  echo
-  echo "| sequence | noise | bound (px) | th_f (m) | R_new | P_new | R_rm | P_rm |"
-  echo "|---|---|---|---|---|---|---|---|"
-  J '[.runs[] | select(.full_sweep != false) | . as $r | .sweep[] | . + {sequence: $r.sequence, noise: $r.noise}] |
-     group_by([.sequence, .noise, .free_ray_bound_px, .th_f_m]) | .[] |
-     def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
-     [.[0].sequence, .[0].noise, .[0].free_ray_bound_px, .[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm)] | map(. // "nan") | @tsv' |
-    while IFS=$'\t' read -r s n b t a bb c d; do
-      echo "| $s | $n | $b | $t | $(f3 "$a") | $(f3 "$bb") | $(f3 "$c") | $(f3 "$d") |"
-    done
-  echo
+  if [ -n "$sweep_noises" ]; then
+    echo "Per sequence (mean over trials):"
+    echo
+    echo "| sequence | noise | bound (px) | th_f (m) | R_new | P_new | R_rm | P_rm |"
+    echo "|---|---|---|---|---|---|---|---|"
+    J '[.runs[] | select(.full_sweep != false) | . as $r | .sweep[] | . + {sequence: $r.sequence, noise: $r.noise}] |
+       group_by([.sequence, .noise, .free_ray_bound_px, .th_f_m]) | .[] |
+       def m(f): (map(f) | map(select(. != null)) | if length == 0 then null else add / length end);
+       [.[0].sequence, .[0].noise, .[0].free_ray_bound_px, .[0].th_f_m, m(.paper.R_new), m(.paper.P_new), m(.paper.R_rm), m(.paper.P_rm)] | map(. // "nan") | @tsv' |
+      while IFS=$'\t' read -r s n b t a bb c d; do
+        echo "| $s | $n | $b | $t | $(f3 "$a") | $(f3 "$bb") | $(f3 "$c") | $(f3 "$d") |"
+      done
+    echo
+  fi
   echo "## Fig. 6 analogue: change metrics from fused vs VIO-only poses ($(J '.runs[0].vio_pose_params // "?"'))"
   echo
   echo "| sequence | noise | poses | R_new | P_new | R_rm | P_rm |"
